@@ -1,0 +1,135 @@
+"""The functional env API: `reset` and `step` on top of smaller, overridable pieces.
+
+An env is an Equinox module, so it is a pytree: its physical parameters are leaves that
+`jax.grad` differentiates and `eqx.filter_vmap` batches, and every method is pure.
+"""
+
+import abc
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import jax.random as jr
+
+from ._types import Array, BoolScalar, Float, Input, IntScalar, Key, Scalar, State
+from .integrate import Integrator
+from .physics import AbstractDynamics
+from .spaces import AbstractSpace
+
+
+class EnvState(eqx.Module):
+    """The state of an env: the continuous state `y` and the env steps taken in this episode.
+
+    Time within the episode is `steps * dt`, never an accumulated sum.
+    """
+
+    y: State
+    steps: IntScalar
+
+
+class AbstractEnv(eqx.Module):
+    """A continuous-time control env: physics (`dynamics`), an `integrator` and a task.
+
+    Scenes provide `initial`, `physical_input`, `observation`, `reward`, `terminal` and
+    the two spaces; `transition`, `truncate`, `reset` and `step` are built from them.
+    """
+
+    dynamics: eqx.AbstractVar[AbstractDynamics]
+    integrator: eqx.AbstractVar[Integrator]
+    dt: eqx.AbstractVar[Scalar]
+    max_episode_steps: eqx.AbstractVar[int | None]
+
+    @property
+    @abc.abstractmethod
+    def action_space(self) -> AbstractSpace: ...
+
+    @property
+    @abc.abstractmethod
+    def observation_space(self) -> AbstractSpace: ...
+
+    @abc.abstractmethod
+    def initial(self, *, key: Key) -> EnvState:
+        """A random initial state."""
+
+    @abc.abstractmethod
+    def physical_input(self, action: Array) -> Input:
+        """The physical input `u` (forces, torques) that `action` applies to the dynamics."""
+
+    @abc.abstractmethod
+    def observation(self, state: EnvState, *, key: Key) -> Float[Array, "..."]:
+        """What the agent sees of `state`."""
+
+    @abc.abstractmethod
+    def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key) -> Scalar:
+        """The reward of the transition `state --action--> next_state`."""
+
+    @abc.abstractmethod
+    def terminal(self, state: EnvState, *, key: Key) -> BoolScalar:
+        """Whether `state` ends the episode (the task's own end, not a time limit)."""
+
+    def transition(self, state: EnvState, action: Array, *, key: Key) -> tuple[EnvState, dict[str, Array]]:
+        """Integrate the dynamics over `[0, dt]` with the action's input held constant.
+
+        The info holds `solver_ok` and `solver_steps`. A failed solve (non-finite state,
+        exhausted step budget) keeps the pre-step state, so that nothing non-finite
+        leaves the env; `step` ends the episode on it.
+        """
+        del key
+        u = self.physical_input(action)
+        y, info = self.integrator.integrate(self.dynamics.vector_field, state.y, u, self.dt)
+        y = jnp.where(info["solver_ok"], y, state.y)
+        return EnvState(y=y, steps=state.steps + 1), info
+
+    def truncate(self, state: EnvState) -> BoolScalar:
+        """Whether the episode's time limit is reached."""
+        if self.max_episode_steps is None:
+            return jnp.asarray(False)
+        return state.steps >= self.max_episode_steps
+
+    def reset(self, *, key: Key) -> tuple[EnvState, Array, dict[str, Array]]:
+        initial_key, observation_key = jr.split(key)
+        state = self.initial(key=initial_key)
+        return state, self.observation(state, key=observation_key), {}
+
+    def step(
+        self, state: EnvState, action: Array, *, key: Key
+    ) -> tuple[EnvState, Array, Scalar, BoolScalar, BoolScalar, dict[str, Array]]:
+        """One env step, with autoreset.
+
+        When the episode ends (terminated or truncated) the returned state and
+        observation are those of a fresh episode; the last observation of the ended one
+        is `info["final_observation"]`. A failed integration (`info["solver_ok"]` False)
+        terminates the episode: the dynamics can no longer be trusted.
+        """
+        transition_key, observation_key, reward_key, terminal_key, reset_key = jr.split(key, 5)
+        next_state, info = self.transition(state, action, key=transition_key)
+        observation = self.observation(next_state, key=observation_key)
+        reward = self.reward(state, action, next_state, key=reward_key)
+        terminated = self.terminal(next_state, key=terminal_key) | ~info["solver_ok"]
+        truncated = self.truncate(next_state)
+        done = terminated | truncated
+        reset_state, reset_observation, _ = self.reset(key=reset_key)
+        new_state = jax.tree.map(lambda fresh, old: jnp.where(done, fresh, old), reset_state, next_state)
+        new_observation = jnp.where(done, reset_observation, observation)
+        info = {**info, "final_observation": observation}
+        return new_state, new_observation, reward, terminated, truncated, info
+
+
+def rollout(
+    env: AbstractEnv, state: EnvState, actions: Array, *, key: Key
+) -> tuple[Float[Array, "T n"], dict[str, Array]]:
+    """Apply `actions` (leading axis: time) with `env.transition`, without termination or reset.
+
+    Returns the states after each action (shape `(T, n)`) and the per-step solver info.
+    Pure, so `jax.grad` of a loss of the trajectory flows to parameters, actions, `dt`
+    and the initial state.
+    """
+    keys = jr.split(key, actions.shape[0])
+
+    def body(state, inputs):
+        action, step_key = inputs
+        next_state, info = env.transition(state, action, key=step_key)
+        return next_state, (next_state.y, info)
+
+    _, (ys, infos) = jax.lax.scan(body, state, (actions, keys))
+    return ys, infos

@@ -1,0 +1,216 @@
+"""Integrating a vector field over one env step with any diffrax solver.
+
+`Integrator` bundles a diffrax solver, a step-size controller, a step budget and an
+adjoint. `make_integrator` turns a preset name (`"euler"`, `"rk4"`, `"tsit5"`, ...) or a
+solver object into one, refusing pairings that would silently produce garbage.
+"""
+
+from collections.abc import Callable
+from typing import ClassVar
+
+import diffrax
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optimistix
+
+from ._checks import check_count
+from ._types import Array, BoolScalar, Input, IntScalar, ScalarLike, State
+
+
+_rk4_tableau = diffrax.ButcherTableau(
+    c=np.array([0.5, 0.5, 1.0]),
+    b_sol=np.array([1 / 6, 1 / 3, 1 / 3, 1 / 6]),
+    # Classic RK4 has no embedded method; a zero error estimate marks that. It would make
+    # an adaptive controller accept every step, so `make_integrator` refuses the pairing.
+    b_error=np.zeros(4),
+    a_lower=(np.array([0.5]), np.array([0.0, 0.5]), np.array([0.0, 0.0, 1.0])),
+)
+
+
+class RK4(diffrax.AbstractERK):
+    """Classic fourth-order Runge--Kutta method (Kutta, 1901) as a diffrax solver.
+
+    Four stages, no error estimate: use it with `diffrax.ConstantStepSize` (or
+    `diffrax.StepTo`). Third-order Hermite interpolation for dense output.
+    """
+
+    tableau: ClassVar[diffrax.ButcherTableau] = _rk4_tableau
+    interpolation_cls: ClassVar[Callable[..., diffrax.AbstractLocalInterpolation]] = (
+        diffrax.ThirdOrderHermitePolynomialInterpolation.from_k
+    )
+
+    def order(self, terms):
+        return 4
+
+
+def _implicit_root_finder():
+    # With diffrax 0.7.2 and optimistix 0.1.0 the default VeryChord rejects about half
+    # of Kvaerno5's steps on stiff problems; Chord with the controller's tolerances does not.
+    return diffrax.with_stepsize_controller_tols(optimistix.Chord)()
+
+
+def _adaptive(rtol: float, atol: float) -> diffrax.PIDController:
+    return diffrax.PIDController(rtol=rtol, atol=atol)
+
+
+# name -> (solver factory, default controller factory, order of the method)
+_PRESETS: dict[str, tuple[Callable[[], diffrax.AbstractSolver], Callable[[], diffrax.AbstractStepSizeController]]] = {
+    "euler": (diffrax.Euler, diffrax.ConstantStepSize),
+    "heun": (diffrax.Heun, diffrax.ConstantStepSize),
+    "midpoint": (diffrax.Midpoint, diffrax.ConstantStepSize),
+    "ralston": (diffrax.Ralston, diffrax.ConstantStepSize),
+    "rk4": (RK4, diffrax.ConstantStepSize),
+    "tsit5": (diffrax.Tsit5, lambda: _adaptive(1e-6, 1e-9)),
+    "dopri5": (diffrax.Dopri5, lambda: _adaptive(1e-6, 1e-9)),
+    "dopri8": (diffrax.Dopri8, lambda: _adaptive(1e-8, 1e-11)),
+    "kvaerno5": (lambda: diffrax.Kvaerno5(root_finder=_implicit_root_finder()), lambda: _adaptive(1e-6, 1e-9)),
+}
+
+SOLVER_PRESETS: tuple[str, ...] = tuple(_PRESETS)
+"""Names accepted wherever a solver is: `make_integrator("rk4")`, `CartPole(solver="tsit5")`."""
+
+
+def has_error_estimate(solver: diffrax.AbstractSolver) -> bool:
+    """Whether `solver` provides the local error estimate an adaptive controller needs."""
+    tableau = getattr(solver, "tableau", None)
+    if isinstance(tableau, diffrax.ButcherTableau):
+        return bool(np.any(np.asarray(tableau.b_error) != 0))
+    # Any other solver: take one abstract step of a scalar ODE and look at its error output.
+    term = diffrax.ODETerm(lambda t, y, args: -y)
+    y0 = jnp.ones(())
+
+    def probe():
+        state = solver.init(term, 0.0, 0.1, y0, None)
+        return solver.step(term, 0.0, 0.1, y0, None, state, made_jump=False)[1]
+
+    try:
+        return jax.eval_shape(probe) is not None
+    except Exception:
+        # Not an ODE solver of a single term (e.g. an IMEX `MultiTerm` solver): let
+        # diffrax judge at solve time.
+        return True
+
+
+class Integrator(eqx.Module):
+    """How one env step integrates the vector field over `[0, dt]`, the input held fixed.
+
+    - `solver`: any diffrax solver.
+    - `stepsize_controller`: `ConstantStepSize` (then `substeps` equal steps per env
+      step) or an adaptive controller such as `PIDController`.
+    - `max_steps`: the step budget of one env step; exhausting it is reported as
+      `solver_ok=False`, never raised.
+    - `adjoint`: how gradients pass through the solve.
+    """
+
+    solver: diffrax.AbstractSolver
+    stepsize_controller: diffrax.AbstractStepSizeController
+    adjoint: diffrax.AbstractAdjoint
+    max_steps: int = eqx.field(static=True)
+    substeps: int = eqx.field(static=True)
+
+    def __init__(
+        self,
+        solver: diffrax.AbstractSolver,
+        stepsize_controller: diffrax.AbstractStepSizeController | None = None,
+        *,
+        max_steps: int | None = None,
+        adjoint: diffrax.AbstractAdjoint | None = None,
+        substeps: int = 1,
+    ):
+        if not isinstance(solver, diffrax.AbstractSolver):
+            raise TypeError(
+                f"solver must be a diffrax solver or one of {SOLVER_PRESETS}, got {solver!r}"
+            )
+        if stepsize_controller is None:
+            stepsize_controller = diffrax.ConstantStepSize()
+        if not isinstance(stepsize_controller, diffrax.AbstractStepSizeController):
+            raise TypeError(
+                f"stepsize_controller must be a diffrax step-size controller, got {stepsize_controller!r}"
+            )
+        check_count(substeps, "substeps")
+        adaptive = isinstance(stepsize_controller, diffrax.AbstractAdaptiveStepSizeController)
+        if adaptive and not has_error_estimate(solver):
+            raise ValueError(
+                f"solver {type(solver).__name__} has no error estimate, so it cannot be paired "
+                f"with the adaptive stepsize_controller {type(stepsize_controller).__name__}: "
+                "every step would be accepted and the result would be garbage. Use "
+                "diffrax.ConstantStepSize() (with `substeps` for accuracy) or a solver with an "
+                "embedded error estimate, such as 'tsit5'."
+            )
+        if max_steps is None:
+            max_steps = 4096 if adaptive else substeps
+        check_count(max_steps, "max_steps")
+        self.solver = solver
+        self.stepsize_controller = stepsize_controller
+        self.adjoint = diffrax.RecursiveCheckpointAdjoint() if adjoint is None else adjoint
+        self.max_steps = max_steps
+        self.substeps = substeps
+
+    @property
+    def adaptive(self) -> bool:
+        return isinstance(self.stepsize_controller, diffrax.AbstractAdaptiveStepSizeController)
+
+    def integrate(
+        self,
+        vector_field: Callable[[ScalarLike, State, Input], State],
+        y0: State,
+        u: Input,
+        dt: ScalarLike,
+    ) -> tuple[State, dict[str, Array]]:
+        """Solve `dy/dt = vector_field(t, y, u)` over `[0, dt]` from `y0`.
+
+        Returns the state at `dt` and `{"solver_ok", "solver_steps"}`. `solver_ok` is
+        False when the solver failed (step budget exhausted, step size collapsed, root
+        finder diverged) or the state is not finite; the state is then not to be used.
+        """
+        dt = jnp.asarray(dt, dtype=y0.dtype)
+        solution = diffrax.diffeqsolve(
+            diffrax.ODETerm(vector_field),
+            self.solver,
+            t0=jnp.zeros((), dtype=y0.dtype),
+            t1=dt,
+            dt0=dt / self.substeps,
+            y0=y0,
+            args=u,
+            stepsize_controller=self.stepsize_controller,
+            max_steps=self.max_steps,
+            adjoint=self.adjoint,
+            throw=False,
+        )
+        y1 = solution.ys[-1]
+        ok: BoolScalar = (solution.result == diffrax.RESULTS.successful) & jnp.all(jnp.isfinite(y1))
+        steps: IntScalar = solution.stats["num_accepted_steps"]
+        return y1, {"solver_ok": ok, "solver_steps": steps}
+
+
+def make_integrator(
+    solver: "str | diffrax.AbstractSolver | Integrator" = "euler",
+    stepsize_controller: diffrax.AbstractStepSizeController | None = None,
+    *,
+    max_steps: int | None = None,
+    adjoint: diffrax.AbstractAdjoint | None = None,
+    substeps: int = 1,
+) -> Integrator:
+    """An `Integrator` from a preset name (see `SOLVER_PRESETS`) or a diffrax solver.
+
+    A preset brings its default controller (`PIDController` for the embedded methods,
+    `ConstantStepSize` for the others) unless `stepsize_controller` is given. A solver
+    object defaults to `ConstantStepSize`.
+    """
+    if isinstance(solver, Integrator):
+        if stepsize_controller is not None or max_steps is not None or adjoint is not None or substeps != 1:
+            raise ValueError("pass either an Integrator or solver settings, not both")
+        return solver
+    if isinstance(solver, str):
+        key = solver.lower()
+        if key not in _PRESETS:
+            raise ValueError(f"solver must be one of {SOLVER_PRESETS} or a diffrax solver, got {solver!r}")
+        make_solver, make_controller = _PRESETS[key]
+        solver = make_solver()
+        if stepsize_controller is None:
+            stepsize_controller = make_controller()
+    return Integrator(
+        solver, stepsize_controller, max_steps=max_steps, adjoint=adjoint, substeps=substeps
+    )

@@ -1,0 +1,7 @@
+"""Physics modules: parameters and a vector field, nothing else."""
+
+from ._base import (
+    AbstractConservativeDynamics as AbstractConservativeDynamics,
+    AbstractDynamics as AbstractDynamics,
+)
+from .cartpole import CartPoleDynamics as CartPoleDynamics

@@ -1,0 +1,28 @@
+import abc
+
+import equinox as eqx
+
+from .._types import Input, Scalar, ScalarLike, State
+
+
+class AbstractDynamics(eqx.Module):
+    """Physics as a vector field `dy/dt = f(t, y, u)`.
+
+    Subclasses hold their physical parameters as array fields (differentiable leaves)
+    and implement `vector_field`. They know nothing of rewards, observations, action
+    spaces or rendering: those belong to a scene.
+    """
+
+    @abc.abstractmethod
+    def vector_field(self, t: ScalarLike, y: State, u: Input) -> State:
+        """The time derivative of the state `y` under the physical input `u`."""
+        raise NotImplementedError
+
+
+class AbstractConservativeDynamics(AbstractDynamics):
+    """Dynamics with an energy that is conserved when the input is zero."""
+
+    @abc.abstractmethod
+    def energy(self, y: State) -> Scalar:
+        """Total mechanical energy of the state `y`."""
+        raise NotImplementedError

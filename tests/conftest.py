@@ -1,0 +1,37 @@
+"""Tests run in float64 with strict dtype promotion, as diffrax's own suite does."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+
+jax.config.update("jax_enable_x64", True)
+jax.config.update("jax_numpy_dtype_promotion", "strict")
+
+
+def tree_allclose(x, y, *, rtol=1e-12, atol=0.0) -> bool:
+    """Whether two pytrees have the same structure and all leaves are close."""
+    x_leaves, x_def = jax.tree.flatten(x)
+    y_leaves, y_def = jax.tree.flatten(y)
+    if x_def != y_def:
+        return False
+    return all(
+        np.allclose(np.asarray(a), np.asarray(b), rtol=rtol, atol=atol) for a, b in zip(x_leaves, y_leaves)
+    )
+
+
+def relative_error(estimate, reference) -> float:
+    estimate = np.asarray(estimate, dtype=np.float64)
+    reference = np.asarray(reference, dtype=np.float64)
+    return float(np.max(np.abs(estimate - reference)) / max(np.max(np.abs(reference)), 1e-300))
+
+
+@pytest.fixture
+def getkey():
+    """A fresh PRNG key on each call, from a fixed seed: keys are never reused."""
+    keys = iter(jax.random.split(jax.random.key(0), 10_000))
+    return lambda: next(keys)
+
+
+__all__ = ["jnp", "relative_error", "tree_allclose"]
