@@ -10,7 +10,9 @@ from .integrate import (
     make_integrator as make_integrator,
 )
 from .physics import AbstractDynamics as AbstractDynamics, CartPoleDynamics as CartPoleDynamics
+from .physics import VanDerPolDynamics as VanDerPolDynamics
 from .scenes import CartPole as CartPole, CartPoleContinuous as CartPoleContinuous
+from .scenes import VanDerPol as VanDerPol
 from .spaces import Box as Box, Discrete as Discrete
 
 __version__ = "0.1.0"

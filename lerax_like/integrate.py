@@ -14,6 +14,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import optimistix
+# diffrax's marker for "take this tolerance from the step-size controller" (not re-exported).
+from diffrax._root_finder import use_stepsize_tol
 
 from ._checks import check_count
 from ._types import Array, BoolScalar, Input, IntScalar, ScalarLike, State
@@ -51,6 +53,20 @@ def _implicit_root_finder():
     return diffrax.with_stepsize_controller_tols(optimistix.Chord)()
 
 
+def _fixed_step_root_finder():
+    # A constant step size has no tolerances for the root finder to borrow, and diffrax
+    # refuses to guess them; these are tight enough that the Newton error stays below the
+    # truncation error of any fixed step worth taking, and loose enough for float32.
+    return optimistix.Chord(rtol=1e-6, atol=1e-6, norm=optimistix.rms_norm)
+
+
+def _uses_controller_tolerances(solver: diffrax.AbstractSolver) -> bool:
+    root_finder = getattr(solver, "root_finder", None)
+    return any(
+        getattr(root_finder, name, None) is use_stepsize_tol for name in ("rtol", "atol", "norm")
+    )
+
+
 def _adaptive(rtol: float, atol: float) -> diffrax.PIDController:
     return diffrax.PIDController(rtol=rtol, atol=atol)
 
@@ -66,6 +82,17 @@ _PRESETS: dict[str, tuple[Callable[[], diffrax.AbstractSolver], Callable[[], dif
     "dopri5": (diffrax.Dopri5, lambda: _adaptive(1e-6, 1e-9)),
     "dopri8": (diffrax.Dopri8, lambda: _adaptive(1e-8, 1e-11)),
     "kvaerno5": (lambda: diffrax.Kvaerno5(root_finder=_implicit_root_finder()), lambda: _adaptive(1e-6, 1e-9)),
+    "implicit_euler": (lambda: diffrax.ImplicitEuler(root_finder=_implicit_root_finder()), lambda: _adaptive(1e-3, 1e-6)),
+    "kvaerno3": (lambda: diffrax.Kvaerno3(root_finder=_implicit_root_finder()), lambda: _adaptive(1e-6, 1e-9)),
+    "kvaerno4": (lambda: diffrax.Kvaerno4(root_finder=_implicit_root_finder()), lambda: _adaptive(1e-6, 1e-9)),
+}
+
+# Implicit presets: with a constant step size their root finder gets explicit tolerances.
+_IMPLICIT_PRESETS = {
+    "implicit_euler": diffrax.ImplicitEuler,
+    "kvaerno3": diffrax.Kvaerno3,
+    "kvaerno4": diffrax.Kvaerno4,
+    "kvaerno5": diffrax.Kvaerno5,
 }
 
 SOLVER_PRESETS: tuple[str, ...] = tuple(_PRESETS)
@@ -139,6 +166,16 @@ class Integrator(eqx.Module):
                 "diffrax.ConstantStepSize() (with `substeps` for accuracy) or a solver with an "
                 "embedded error estimate, such as 'tsit5'."
             )
+        if not adaptive and _uses_controller_tolerances(solver):
+            raise ValueError(
+                f"the implicit solver {type(solver).__name__} takes its root finder's tolerances "
+                f"from the step-size controller, but {type(stepsize_controller).__name__} has none. "
+                "Use an adaptive controller such as diffrax.PIDController(rtol=1e-6, atol=1e-9) "
+                "(recommended: a failed Newton solve then shrinks the step instead of failing "
+                "the env step), or give the root finder explicit tolerances, e.g. "
+                f"diffrax.{type(solver).__name__}(root_finder=optimistix.Chord(rtol=1e-6, "
+                "atol=1e-6, norm=optimistix.rms_norm)), as the implicit presets do."
+            )
         if max_steps is None:
             max_steps = 4096 if adaptive else substeps
         check_count(max_steps, "max_steps")
@@ -166,12 +203,17 @@ class Integrator(eqx.Module):
         finder diverged) or the state is not finite; the state is then not to be used.
         """
         dt = jnp.asarray(dt, dtype=y0.dtype)
+        # An adaptive controller picks its own first step (Hairer's heuristic). A first
+        # trial step of the whole `dt` can overflow on a stiff problem, and the
+        # PIDController turns the resulting NaN error into a NaN step size that rejects
+        # every later step (Van der Pol, mu=1e3, dt=10: 0 of 4096 steps accepted).
+        dt0 = None if self.adaptive else dt / self.substeps
         solution = diffrax.diffeqsolve(
             diffrax.ODETerm(vector_field),
             self.solver,
             t0=jnp.zeros((), dtype=y0.dtype),
             t1=dt,
-            dt0=dt / self.substeps,
+            dt0=dt0,
             y0=y0,
             args=u,
             stepsize_controller=self.stepsize_controller,
@@ -208,9 +250,14 @@ def make_integrator(
         if key not in _PRESETS:
             raise ValueError(f"solver must be one of {SOLVER_PRESETS} or a diffrax solver, got {solver!r}")
         make_solver, make_controller = _PRESETS[key]
-        solver = make_solver()
         if stepsize_controller is None:
             stepsize_controller = make_controller()
+        if key in _IMPLICIT_PRESETS and not isinstance(
+            stepsize_controller, diffrax.AbstractAdaptiveStepSizeController
+        ):
+            solver = _IMPLICIT_PRESETS[key](root_finder=_fixed_step_root_finder())
+        else:
+            solver = make_solver()
     return Integrator(
         solver, stepsize_controller, max_steps=max_steps, adjoint=adjoint, substeps=substeps
     )

@@ -5,3 +5,4 @@ from ._base import (
     AbstractDynamics as AbstractDynamics,
 )
 from .cartpole import CartPoleDynamics as CartPoleDynamics
+from .van_der_pol import VanDerPolDynamics as VanDerPolDynamics

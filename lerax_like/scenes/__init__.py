@@ -5,3 +5,4 @@ from .cartpole import (
     CartPole as CartPole,
     CartPoleContinuous as CartPoleContinuous,
 )
+from .van_der_pol import VanDerPol as VanDerPol
