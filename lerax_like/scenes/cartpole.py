@@ -19,14 +19,19 @@ SolverLike = "str | diffrax.AbstractSolver | Integrator"
 
 def _cartpole_parts(
     gravity, cart_mass, pole_mass, half_length, force_mag, theta_threshold_radians, x_threshold, dt,
-    solver, stepsize_controller,
+    solver, stepsize_controller, joint_damping=0.0, end_stop_stiffness=0.0, end_stop_damping=0.0,
+    track_limit=2.4,
 ) -> tuple[CartPoleDynamics, Integrator, Scalar, Scalar, Scalar, Scalar]:
     check_positive(force_mag, "force_mag")
     check_positive_or_inf(theta_threshold_radians, "theta_threshold_radians")
     check_positive_or_inf(x_threshold, "x_threshold")
     check_positive(dt, "dt")
     return (
-        CartPoleDynamics(gravity=gravity, cart_mass=cart_mass, pole_mass=pole_mass, half_length=half_length),
+        CartPoleDynamics(
+            gravity=gravity, cart_mass=cart_mass, pole_mass=pole_mass, half_length=half_length,
+            joint_damping=joint_damping, end_stop_stiffness=end_stop_stiffness,
+            end_stop_damping=end_stop_damping, track_limit=track_limit,
+        ),
         make_integrator(solver, stepsize_controller),
         as_parameter(dt, "dt"),
         as_parameter(force_mag, "force_mag"),
@@ -99,6 +104,12 @@ class CartPole(AbstractCartPole):
     `gravity`, `cart_mass`, `pole_mass`, `half_length`, `force_mag`,
     `theta_threshold_radians`, `x_threshold`, `dt`, `solver` (a preset name, a diffrax
     solver or an `Integrator`), `stepsize_controller`, `max_episode_steps`.
+    Stiff options of real rigs, off (0) by default so that Gymnasium's step is kept:
+    `joint_damping` (hinge friction, N m s/rad; 300 is very stiff), `end_stop_stiffness`
+    and `end_stop_damping` (one-sided spring-dampers at `x = +-track_limit`, stiffness up
+    to 1e6 N/m; a contact), `track_limit` (m, the stops' position, default 2.4; set
+    `x_threshold=inf` to let the cart reach them). See `CartPoleDynamics`; stiff settings
+    need an adaptive solver (`"tsit5"`) or an implicit one (`"kvaerno5"`).
     """
 
     dynamics: CartPoleDynamics
@@ -123,13 +134,18 @@ class CartPole(AbstractCartPole):
         solver: SolverLike = "euler",
         stepsize_controller: diffrax.AbstractStepSizeController | None = None,
         max_episode_steps: int | None = 500,
+        joint_damping: ScalarLike = 0.0,
+        end_stop_stiffness: ScalarLike = 0.0,
+        end_stop_damping: ScalarLike = 0.0,
+        track_limit: ScalarLike = 2.4,
     ):
         (
             self.dynamics, self.integrator, self.dt, self.force_mag,
             self.theta_threshold_radians, self.x_threshold,
         ) = _cartpole_parts(
             gravity, cart_mass, pole_mass, half_length, force_mag, theta_threshold_radians,
-            x_threshold, dt, solver, stepsize_controller,
+            x_threshold, dt, solver, stepsize_controller, joint_damping, end_stop_stiffness,
+            end_stop_damping, track_limit,
         )
         self.max_episode_steps = max_episode_steps
 
@@ -170,7 +186,7 @@ class CartPoleContinuous(AbstractCartPole):
     unbounded task (swing-up, say).
 
     ## Arguments
-    Those of `CartPole`, plus `reward` and `action_cost` (>= 0).
+    Those of `CartPole` (the stiff options included), plus `reward` and `action_cost` (>= 0).
     """
 
     dynamics: CartPoleDynamics
@@ -199,13 +215,18 @@ class CartPoleContinuous(AbstractCartPole):
         max_episode_steps: int | None = 500,
         reward: Literal["gymnasium", "smooth"] = "gymnasium",
         action_cost: ScalarLike = 1e-3,
+        joint_damping: ScalarLike = 0.0,
+        end_stop_stiffness: ScalarLike = 0.0,
+        end_stop_damping: ScalarLike = 0.0,
+        track_limit: ScalarLike = 2.4,
     ):
         (
             self.dynamics, self.integrator, self.dt, self.force_mag,
             self.theta_threshold_radians, self.x_threshold,
         ) = _cartpole_parts(
             gravity, cart_mass, pole_mass, half_length, force_mag, theta_threshold_radians,
-            x_threshold, dt, solver, stepsize_controller,
+            x_threshold, dt, solver, stepsize_controller, joint_damping, end_stop_stiffness,
+            end_stop_damping, track_limit,
         )
         if reward not in ("gymnasium", "smooth"):
             raise ValueError(f"reward must be 'gymnasium' or 'smooth', got {reward!r}")
