@@ -98,13 +98,35 @@ class AbstractEnv(eqx.Module):
 
         When the episode ends (terminated or truncated) the returned state and
         observation are those of a fresh episode; the last observation of the ended one
-        is `info["final_observation"]`. A failed integration (`info["solver_ok"]` False)
-        terminates the episode: the dynamics can no longer be trusted.
+        is `info["final_observation"]`.
+
+        Failures are reported, never silent. `info["solver_ok"]` is False when the solve
+        failed (non-finite state, step budget exhausted, step size collapsed, Newton
+        diverged) or when a finite state still gave a non-finite observation or reward
+        (overflow). Such a step *terminates* the episode, and nothing non-finite is
+        returned: the state stays at the pre-step state (see `transition`), a non-finite
+        observation is replaced by the pre-step state's and a non-finite reward by 0.
+
+        Terminated rather than truncated: truncation tells an agent to bootstrap from
+        `final_observation` as if the episode could have gone on from it, but after a
+        failure there is no true next state to bootstrap from (the returned one is the
+        pre-step state, a transition that never happened); and in the MDP the env
+        actually computes (solver included) a state that overflows is absorbing. A
+        terminal with no future reward is also the conservative signal: an agent learns
+        to avoid the actions that break the solver rather than to exploit them.
+        `info["solver_ok"]` tells this end apart from the task's own.
         """
         transition_key, observation_key, reward_key, terminal_key, reset_key = jr.split(key, 5)
         next_state, info = self.transition(state, action, key=transition_key)
         observation = self.observation(next_state, key=observation_key)
         reward = self.reward(state, action, next_state, key=reward_key)
+        # The last line of defence: a finite state can overflow in an observation or a
+        # reward (a square of 1e200, say).
+        observation_ok = jnp.all(jnp.isfinite(observation))
+        reward_ok = jnp.isfinite(reward)
+        observation = jnp.where(observation_ok, observation, self.observation(state, key=observation_key))
+        reward = jnp.where(reward_ok, reward, jnp.zeros_like(reward))
+        info = {**info, "solver_ok": info["solver_ok"] & observation_ok & reward_ok}
         terminated = self.terminal(next_state, key=terminal_key) | ~info["solver_ok"]
         truncated = self.truncate(next_state)
         done = terminated | truncated
