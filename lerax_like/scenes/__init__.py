@@ -5,3 +5,4 @@ from .cartpole import (
     CartPole as CartPole,
     CartPoleContinuous as CartPoleContinuous,
 )
+from .pendulum import Pendulum as Pendulum
