@@ -17,7 +17,12 @@ from .physics import (
     PendulumDynamics as PendulumDynamics,
 )
 from .scenes import CartPole as CartPole, CartPoleContinuous as CartPoleContinuous
-from .scenes import Pendulum as Pendulum
+from .scenes import (
+    Acrobot as Acrobot,
+    MountainCar as MountainCar,
+    MountainCarContinuous as MountainCarContinuous,
+    Pendulum as Pendulum,
+)
 from .spaces import Box as Box, Discrete as Discrete
 
 __version__ = "0.1.0"

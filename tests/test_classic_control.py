@@ -36,14 +36,18 @@ def _one_step(env, y, action, key):
     )
 
 
-def _compare_episode(env, gym_env, policy, *, seed, steps, rtol, key):
+def _compare_episode(env, gym_env, policy, *, seed, steps, rtol, key, start=None):
     """Run Gymnasium for `steps` steps (or to termination), checking our step at each one.
 
-    Returns Gymnasium's states (before each step) and the actions, for event assertions.
+    `start`, if given, is written into Gymnasium's state after its reset (to reach
+    states, such as high speeds, that its own start never does). Returns Gymnasium's
+    states (before each step and after the last), the actions and the rewards.
     """
     gym_env.reset(seed=seed)
+    if start is not None:
+        gym_env.state = np.array(start, dtype=np.float64)
     rng = np.random.default_rng(seed)
-    states, actions = [], []
+    states, actions, rewards = [], [], []
     for _ in range(steps):
         y = np.array(gym_env.state, dtype=np.float64)
         action = policy(y, rng)
@@ -58,9 +62,10 @@ def _compare_episode(env, gym_env, policy, *, seed, steps, rtol, key):
         assert not gym_truncated
         states.append(y)
         actions.append(action)
+        rewards.append(gym_reward)
         if gym_terminated:
             break
-    return np.array(states + [gym_y1]), actions
+    return np.array(states + [gym_y1]), actions, np.array(rewards)
 
 
 # ---------------------------------------------------------------------------- Pendulum
@@ -82,7 +87,7 @@ def test_pendulum_matches_gymnasium(getkey):
     gym_env = gymnasium.make("Pendulum-v1").unwrapped
     speed_clips = 0
     for seed in range(3):
-        states, actions = _compare_episode(
+        states, _, _ = _compare_episode(
             env, gym_env, _pendulum_policy, seed=seed, steps=200, rtol=1e-12, key=getkey()
         )
         speed_clips += int(np.sum(np.abs(states[1:, 1]) == 8.0))
@@ -102,3 +107,108 @@ def test_pendulum_energy_conserved_without_torque_under_tsit5():
     assert relative_error(energies, jnp.full_like(energies, env.dynamics.energy(y0))) < 1e-9
     # and the motion is a real swing, not a rest
     assert float(jnp.max(jnp.abs(ys[:, 0]))) > 3.0
+
+
+# ----------------------------------------------------------------------------- Acrobot
+
+
+def _acrobot_policy(y, rng):
+    # Torque along the first link's velocity pumps energy in; one action in four at random.
+    if rng.random() < 0.25:
+        return int(rng.integers(3))
+    return 2 if y[2] > 0 else 0
+
+
+def test_acrobot_matches_gymnasium(getkey):
+    env = ll.Acrobot()
+    gym_env = gymnasium.make("Acrobot-v1").unwrapped
+    wraps = velocity_clips = terminations = 0
+    # Two episodes from Gymnasium's start, and one thrown from a fast state so that the
+    # speed limits (4 pi, 9 pi) bite.
+    for seed, start in [(0, None), (1, None), (2, [-0.09, 2.97, -4.6, -17.8])]:
+        states, _, rewards = _compare_episode(
+            env, gym_env, _acrobot_policy, seed=seed, steps=500, rtol=1e-12, key=getkey(), start=start
+        )
+        wraps += int(np.sum(np.abs(np.diff(states[:, :2], axis=0)) > np.pi))
+        velocity_clips += int(np.sum(np.abs(states[1:, 2]) == 4 * np.pi) + np.sum(np.abs(states[1:, 3]) == 9 * np.pi))
+        terminations += int(np.sum(rewards == 0.0))
+    assert wraps >= 3 and velocity_clips >= 1 and terminations >= 1, (wraps, velocity_clips, terminations)
+
+
+def test_acrobot_vector_field_is_gymnasiums_dsdt():
+    dynamics = ll.AcrobotDynamics()
+    gym_env = gymnasium.make("Acrobot-v1").unwrapped
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        y = rng.uniform([-np.pi, -np.pi, -4 * np.pi, -9 * np.pi], [np.pi, np.pi, 4 * np.pi, 9 * np.pi])
+        torque = rng.choice([-1.0, 0.0, 1.0])
+        expected = np.array(gym_env._dsdt(np.append(y, torque))[:4])
+        ours = dynamics.vector_field(0.0, jnp.asarray(y), jnp.array([torque]))
+        assert relative_error(ours, expected) < 1e-13
+
+
+def test_acrobot_book_equations_conserve_energy_and_nips_do_not():
+    # Independent check of the "book" vector field: with no torque, the rate of change of
+    # the double pendulum's energy along the field, grad(E) . f, vanishes at every state.
+    # The NeurIPS paper's equations lack a Coriolis term and do not conserve it.
+    rng = np.random.default_rng(1)
+    states = jnp.asarray(rng.uniform([-np.pi, -np.pi, -5, -5], [np.pi, np.pi, 5, 5], size=(50, 4)))
+    no_torque = jnp.zeros((1,))
+    for equations, conserved in [("book", True), ("nips", False)]:
+        dynamics = ll.AcrobotDynamics(equations=equations)
+        power = jax.vmap(lambda y: jnp.dot(jax.grad(dynamics.energy)(y), dynamics.vector_field(0.0, y, no_torque)))
+        energy_scale = jnp.max(jnp.abs(jax.vmap(dynamics.energy)(states)))
+        worst = float(jnp.max(jnp.abs(power(states))) / energy_scale)
+        assert (worst < 1e-13) if conserved else (worst > 1e-2), (equations, worst)
+
+
+# ------------------------------------------------------------------------- MountainCar
+
+
+def _mountain_car_policy(y, rng):
+    # Accelerate along the velocity (the classic energy-pumping policy), one action in
+    # five at random; push left at the start to drive into the left wall.
+    if rng.random() < 0.2:
+        return int(rng.integers(3))
+    return 2 if y[1] > 0 else 0
+
+
+def test_mountain_car_matches_gymnasium(getkey):
+    env = ll.MountainCar()
+    gym_env = gymnasium.make("MountainCar-v0").unwrapped
+    walls = speed_clips = goals = 0
+    # From Gymnasium's start, and from a fast state heading for the left wall.
+    for seed, start in [(0, None), (1, None), (2, [-1.0, -0.069]), (3, [-0.9, 0.069])]:
+        states, _, _ = _compare_episode(
+            env, gym_env, _mountain_car_policy, seed=seed, steps=200, rtol=1e-12, key=getkey(), start=start
+        )
+        walls += int(np.sum((states[1:, 0] == -1.2) & (states[1:, 1] == 0.0)))
+        speed_clips += int(np.sum(np.abs(states[1:, 1]) == 0.07))
+        goals += int(states[-1, 0] >= 0.5)
+    assert walls >= 1 and speed_clips >= 1 and goals >= 2, (walls, speed_clips, goals)
+
+
+def _continuous_mountain_car_policy(y, rng):
+    # Full throttle along the velocity, and one action in three at random, beyond the
+    # action bounds on purpose (the action clip, and the penalty on the unclipped action).
+    if rng.random() < 1 / 3:
+        throttle = rng.uniform(-1.5, 1.5)
+    else:
+        throttle = 1.0 if y[1] >= 0 else -1.0
+    return np.array([np.float32(throttle)], dtype=np.float64)
+
+
+def test_mountain_car_continuous_matches_gymnasium(getkey):
+    # Gymnasium keeps this env's state in float32: hence 1e-6.
+    env = ll.MountainCarContinuous()
+    gym_env = gymnasium.make("MountainCarContinuous-v0").unwrapped
+    walls = speed_clips = goals = 0
+    for seed, start in [(0, None), (1, None), (2, [-1.0, -0.069]), (3, [-0.9, 0.069])]:
+        states, _, rewards = _compare_episode(
+            env, gym_env, _continuous_mountain_car_policy, seed=seed, steps=999, rtol=1e-6, key=getkey(),
+            start=start,
+        )
+        walls += int(np.sum((states[1:, 0] == np.float32(-1.2)) & (states[1:, 1] == 0.0)))
+        speed_clips += int(np.sum(np.abs(states[1:, 1]) == np.float32(0.07)))
+        goals += int(np.sum(rewards > 90.0))
+    assert walls >= 1 and speed_clips >= 1 and goals >= 2, (walls, speed_clips, goals)
