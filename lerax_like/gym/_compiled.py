@@ -33,12 +33,12 @@ def build_scene(scene_cls: type[AbstractEnv], kwargs: dict[str, Any]) -> Abstrac
 class SplitScene:
     """A scene as (array leaves, treedef, static rest), with the compiled functions for it."""
 
-    def __init__(self, scene: AbstractEnv, max_episode_steps: int | None = None):
+    def __init__(self, scene: AbstractEnv):
         params, static = eqx.partition(scene, eqx.is_array)
         leaves, treedef = jax.tree.flatten(params)
         self.scene = scene
         self.leaves = leaves
-        functions = _functions(treedef, static, max_episode_steps)
+        functions = _functions(treedef, static)
         self.step, self.observe, self.vector_step, self.vector_observe = functions
 
 
@@ -56,7 +56,7 @@ def _cache(function: Callable) -> Callable:
 
 
 @_cache
-def _functions(treedef, static, max_episode_steps):
+def _functions(treedef, static):
     def scene_of(leaves) -> AbstractEnv:
         return eqx.combine(jax.tree.unflatten(treedef, leaves), static)
 
@@ -88,12 +88,12 @@ def _functions(treedef, static, max_episode_steps):
         return observe_one(scene_of(leaves), y, steps, observation_key), key
 
     @jax.jit
-    def vector_step(leaves, y, steps, action, key, reset_mask, reset_y):
+    def vector_step(leaves, y, steps, action, key, reset_mask, reset_y, max_episode_steps):
         """All envs step; then those whose episode ended at the previous step restart.
 
-        Gymnasium's next-step autoreset: a restarted env returns its fresh observation,
-        reward 0, terminated and truncated False. `reset_mask is None` (no env to restart)
-        compiles a second, leaner version.
+        Gymnasium's next-step autoreset: a restarted env (`reset_mask`) continues from
+        `reset_y` and returns its fresh observation, reward 0, terminated and truncated
+        False. One compilation serves every time limit and every pattern of restarts.
         """
         scene = scene_of(leaves)
         num_envs = y.shape[0]
@@ -103,22 +103,15 @@ def _functions(treedef, static, max_episode_steps):
         next_y, reward, terminated, info = jax.vmap(transition, in_axes=(None, 0, 0, 0, 0))(
             scene, y, steps, action, step_keys
         )
-        steps = steps + 1
-        if reset_mask is not None:
-            next_y = jnp.where(reset_mask[:, None], reset_y, next_y)
-            steps = jnp.where(reset_mask, 0, steps)
-            reward = jnp.where(reset_mask, 0, reward)
-            terminated = terminated & ~reset_mask
-            info = {
-                "solver_ok": info["solver_ok"] | reset_mask,
-                "solver_steps": jnp.where(reset_mask, 0, info["solver_steps"]),
-            }
-        if max_episode_steps is None:
-            truncated = jnp.zeros_like(terminated)
-        else:
-            truncated = steps >= max_episode_steps
-            if reset_mask is not None:
-                truncated = truncated & ~reset_mask
+        next_y = jnp.where(reset_mask[:, None], reset_y, next_y)
+        steps = jnp.where(reset_mask, 0, steps + 1)
+        reward = jnp.where(reset_mask, 0, reward)
+        terminated = terminated & ~reset_mask
+        truncated = (steps >= max_episode_steps) & ~reset_mask
+        info = {
+            "solver_ok": info["solver_ok"] | reset_mask,
+            "solver_steps": jnp.where(reset_mask, 0, info["solver_steps"]),
+        }
         observation = jax.vmap(observe_one, in_axes=(None, 0, 0, 0))(scene, next_y, steps, observation_keys)
         return next_y, steps, observation, reward, terminated, truncated, info, key
 

@@ -54,7 +54,7 @@ class GymnasiumVectorEnv(VectorEnv):
         self.num_envs = num_envs
         self.max_episode_steps = max_episode_steps
         scene = build_scene(getattr(scenes, spec.scene), scene_kwargs)
-        self._split = SplitScene(scene, max_episode_steps)
+        self._split = SplitScene(scene)
         with float64():
             self.single_action_space = to_gymnasium_space(scene.action_space)
             self.single_observation_space = to_gymnasium_space(scene.observation_space)
@@ -82,7 +82,7 @@ class GymnasiumVectorEnv(VectorEnv):
 
     @scene.setter
     def scene(self, scene) -> None:
-        self._split = SplitScene(scene, self.max_episode_steps)
+        self._split = SplitScene(scene)
 
     @property
     def state(self) -> np.ndarray | None:
@@ -98,17 +98,20 @@ class GymnasiumVectorEnv(VectorEnv):
                 self._steps = jnp.zeros(self.num_envs, dtype=int)
 
     def _warm_up(self) -> None:
-        # Compile both versions of the step (with and without restarts) and the observation.
-        rng = np.random.default_rng(0)
-        y = self._gym_spec.initial_state(rng, None, self.num_envs).T
-        actions = self._actions(self._zero_actions())
-        mask = np.zeros(self.num_envs, dtype=np.bool_)
+        # Compile the step and the observation now, not in the first step of training.
+        y = self._gym_spec.initial_state(np.random.default_rng(0), None, self.num_envs).T
         with float64():
+            self._no_reset = jnp.zeros(self.num_envs, dtype=bool)
+            self._time_limit = jnp.asarray(
+                np.iinfo(np.int64).max if self.max_episode_steps is None else self.max_episode_steps
+            )
             y, steps = jnp.asarray(y), jnp.zeros(self.num_envs, dtype=int)
             leaves, key = self._split.leaves, self._jax_key
+            actions = self._actions(self._zero_actions())
             jax.block_until_ready(self._split.vector_observe(leaves, y, steps, key))
-            jax.block_until_ready(self._split.vector_step(leaves, y, steps, actions, key, None, None))
-            jax.block_until_ready(self._split.vector_step(leaves, y, steps, actions, key, mask, np.asarray(y)))
+            jax.block_until_ready(
+                self._split.vector_step(leaves, y, steps, actions, key, self._no_reset, y, self._time_limit)
+            )
 
     def _zero_actions(self):
         if self._discrete:
@@ -143,15 +146,19 @@ class GymnasiumVectorEnv(VectorEnv):
     def step(self, actions):
         actions = self._actions(actions)
         assert self._y is not None, "Call reset before using step method."
-        if self._prev_done.any():
-            reset_mask = self._prev_done
-            reset_y = np.zeros(self._y.shape)
-            reset_y[reset_mask] = self._gym_spec.initial_state(self.np_random, self._options, int(reset_mask.sum())).T
-        else:
-            reset_mask = reset_y = None
         with float64():
+            if self._prev_done.any():
+                # Gymnasium's vector CartPole draws only when some env restarts, for those envs.
+                reset_mask = self._prev_done
+                reset_y = np.zeros(self._y.shape)
+                reset_y[reset_mask] = self._gym_spec.initial_state(
+                    self.np_random, self._options, int(reset_mask.sum())
+                ).T
+            else:
+                reset_mask, reset_y = self._no_reset, self._y
             self._y, self._steps, *outputs, self._jax_key = self._split.vector_step(
-                self._split.leaves, self._y, self._steps, actions, self._jax_key, reset_mask, reset_y
+                self._split.leaves, self._y, self._steps, actions, self._jax_key, reset_mask, reset_y,
+                self._time_limit,
             )
             observation, reward, terminated, truncated, info = jax.device_get(outputs)
         terminated = np.array(terminated)
