@@ -58,7 +58,7 @@ def _pump(n, s, rng):  # mountain cars: push along the velocity, reaches the goa
 
 
 def _wall(n, s, rng):  # mountain cars: swing, then roll into the left wall
-    return 2 if (n < 60 and s[1] >= 0) else 0
+    return 2 if (n < 90 and s[1] >= 0) else 0
 
 
 def _continuous(policy, scale):
@@ -102,6 +102,33 @@ EDGE_CASES = {
         ([0.59, 0.069], np.array([3.0])),
         ([0.449, 0.0005], np.array([1.0])),
     ],
+}
+
+
+# Events that the episodes above must contain, detected on Gymnasium's trajectory:
+# (previous state, state, terminated, truncated) -> bool.
+EVENTS = {
+    "lerax_like/CartPole-v1": {
+        "terminated": lambda s0, s1, te, tr: te,
+        "truncated": lambda s0, s1, te, tr: tr,
+    },
+    "lerax_like/Pendulum-v1": {
+        "speed clipped": lambda s0, s1, te, tr: abs(s1[1]) == 8.0,
+        "truncated": lambda s0, s1, te, tr: tr,
+    },
+    "lerax_like/Acrobot-v1": {
+        "angle wrapped": lambda s0, s1, te, tr: np.any(np.abs(s1[:2] - s0[:2]) > np.pi),
+        "terminated": lambda s0, s1, te, tr: te,
+        "truncated": lambda s0, s1, te, tr: tr,
+    },
+    "lerax_like/MountainCar-v0": {
+        "left wall": lambda s0, s1, te, tr: s1[0] == -1.2 and s1[1] == 0.0,
+        "goal": lambda s0, s1, te, tr: te,
+    },
+    "lerax_like/MountainCarContinuous-v0": {
+        "left wall": lambda s0, s1, te, tr: s1[0] == np.float32(-1.2) and s1[1] == 0.0,
+        "goal": lambda s0, s1, te, tr: te,
+    },
 }
 
 
@@ -160,6 +187,7 @@ def test_whole_episodes_match_gymnasium(env_id):
     env = gymnasium.make(registered(env_id))
     ref_env = gymnasium.make(reference_id(env_id))
     rtol = STATE_RTOL[env_id]
+    seen = dict.fromkeys(EVENTS[env_id], 0)
     for seed, options, policy in EPISODES[env_id]:
         rng = np.random.default_rng(seed)
         env.reset(seed=seed, options=options)
@@ -173,8 +201,11 @@ def test_whole_episodes_match_gymnasium(env_id):
             context = f"{env_id} seed {seed} step {step}"
             _compare_step(ours, reference, env_id, context)
             _assert_state_close(env.unwrapped.state, ref_env.unwrapped.state, rtol, context)
+            for name, happened in EVENTS[env_id].items():
+                seen[name] += bool(happened(ref_state, np.asarray(ref_env.unwrapped.state), *reference[2:4]))
             if reference[2] or reference[3]:
                 break
+    assert all(seen.values()), seen
 
 
 @pytest.mark.parametrize("env_id", ALL_IDS)
