@@ -26,3 +26,8 @@ from .scenes import (
 from .spaces import Box as Box, Discrete as Discrete
 
 __version__ = "0.1.0"
+
+# The Gymnasium ids (`gymnasium.make("lerax_like/CartPole-v1")`), registered on import.
+from . import gym as gym
+
+gym.register_envs()
