@@ -18,6 +18,7 @@ import optimistix
 from diffrax._root_finder import use_stepsize_tol
 
 from ._checks import check_count
+from ._semi_implicit import ProjectedODETerm as ProjectedODETerm, SemiImplicitEuler as SemiImplicitEuler
 from ._types import Array, BoolScalar, Input, IntScalar, ScalarLike, State
 
 
@@ -85,6 +86,7 @@ _PRESETS: dict[str, tuple[Callable[[], diffrax.AbstractSolver], Callable[[], dif
     "implicit_euler": (lambda: diffrax.ImplicitEuler(root_finder=_implicit_root_finder()), lambda: _adaptive(1e-3, 1e-6)),
     "kvaerno3": (lambda: diffrax.Kvaerno3(root_finder=_implicit_root_finder()), lambda: _adaptive(1e-6, 1e-9)),
     "kvaerno4": (lambda: diffrax.Kvaerno4(root_finder=_implicit_root_finder()), lambda: _adaptive(1e-6, 1e-9)),
+    "semi_implicit_euler": (SemiImplicitEuler, diffrax.ConstantStepSize),
 }
 
 # Implicit presets: with a constant step size their root finder gets explicit tolerances.
@@ -101,6 +103,8 @@ SOLVER_PRESETS: tuple[str, ...] = tuple(_PRESETS)
 
 def has_error_estimate(solver: diffrax.AbstractSolver) -> bool:
     """Whether `solver` provides the local error estimate an adaptive controller needs."""
+    if isinstance(solver, SemiImplicitEuler):
+        return False
     tableau = getattr(solver, "tableau", None)
     if isinstance(tableau, diffrax.ButcherTableau):
         return bool(np.any(np.asarray(tableau.b_error) != 0))
@@ -195,8 +199,17 @@ class Integrator(eqx.Module):
         y0: State,
         u: Input,
         dt: ScalarLike,
+        *,
+        projection: Callable[[State], State] | None = None,
+        velocity_indices: tuple[int, ...] | None = None,
     ) -> tuple[State, dict[str, Array]]:
         """Solve `dy/dt = vector_field(t, y, u)` over `[0, dt]` from `y0`.
+
+        `projection` (idempotent) maps states onto the admissible set (speed limits,
+        walls, angle wrapping): it is applied to the end state whatever the solver, and
+        inside the step by solvers that know of it (`SemiImplicitEuler`, between its
+        velocity and position updates). `velocity_indices` names the velocity components
+        of a second-order state, which `SemiImplicitEuler` needs.
 
         Returns the state at `dt` and `{"solver_ok", "solver_steps"}`. `solver_ok` is
         False when the solver failed (step budget exhausted, step size collapsed, root
@@ -208,8 +221,13 @@ class Integrator(eqx.Module):
         # PIDController turns the resulting NaN error into a NaN step size that rejects
         # every later step (Van der Pol, mu=1e3, dt=10: 0 of 4096 steps accepted).
         dt0 = None if self.adaptive else dt / self.substeps
+        if projection is None and velocity_indices is None:
+            term = diffrax.ODETerm(vector_field)
+        else:
+            optional = {} if projection is None else {"projection": projection}
+            term = ProjectedODETerm(vector_field, velocity_indices=velocity_indices, **optional)
         solution = diffrax.diffeqsolve(
-            diffrax.ODETerm(vector_field),
+            term,
             self.solver,
             t0=jnp.zeros((), dtype=y0.dtype),
             t1=dt,
@@ -222,7 +240,12 @@ class Integrator(eqx.Module):
             throw=False,
         )
         y1 = solution.ys[-1]
-        ok: BoolScalar = (solution.result == diffrax.RESULTS.successful) & jnp.all(jnp.isfinite(y1))
+        # Checked before the projection too: clipping an infinite speed to its bound
+        # would otherwise make a diverged solve look finite.
+        finite = jnp.all(jnp.isfinite(y1))
+        if projection is not None:
+            y1 = projection(y1)
+        ok: BoolScalar = (solution.result == diffrax.RESULTS.successful) & finite & jnp.all(jnp.isfinite(y1))
         steps: IntScalar = solution.stats["num_accepted_steps"]
         return y1, {"solver_ok": ok, "solver_steps": steps}
 

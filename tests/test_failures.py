@@ -211,3 +211,20 @@ def test_van_der_pol_steps_are_finite_and_flags_consistent(mu, x, v, action):
     if mu <= 1.0:
         # Not stiff: a modest budget always suffices.
         assert not failed.any()
+
+
+def test_gymnasium_layer_flags_divergence_and_returns_finite_float32():
+    import gymnasium
+
+    # Euler at dt = 0.5 diverges; the float64 state overflows float32 long before it
+    # overflows itself: the float32 observation must still be finite, and flagged.
+    env = gymnasium.make("lerax_like/CartPole-v1", dt=0.5, theta_threshold_radians=np.inf, x_threshold=np.inf)
+    action = 1
+    env.reset(seed=0)
+    for _ in range(400):
+        observation, reward, terminated, truncated, info = env.step(action)
+        assert np.all(np.isfinite(observation)) and np.isfinite(reward)
+        assert terminated == (not info["solver_ok"])
+        if terminated:
+            break
+    assert terminated and not info["solver_ok"]

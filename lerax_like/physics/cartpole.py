@@ -1,3 +1,5 @@
+from typing import ClassVar
+
 import jax.numpy as jnp
 
 from .._checks import as_parameter, check_nonnegative, check_positive, check_positive_or_inf
@@ -31,6 +33,8 @@ class CartPoleDynamics(AbstractConservativeDynamics):
     Both enter Lagrange's equations as generalised forces, `Q_x = u + F_stop` and
     `Q_theta = -b theta_dot`; `tests/test_stiff.py` rederives the accelerations with SymPy.
     """
+
+    velocity_indices: ClassVar[tuple[int, ...]] = (1, 3)
 
     gravity: Scalar
     cart_mass: Scalar

@@ -5,4 +5,11 @@ from .cartpole import (
     CartPole as CartPole,
     CartPoleContinuous as CartPoleContinuous,
 )
+from .acrobot import Acrobot as Acrobot
+from .mountain_car import (
+    AbstractMountainCar as AbstractMountainCar,
+    MountainCar as MountainCar,
+    MountainCarContinuous as MountainCarContinuous,
+)
+from .pendulum import Pendulum as Pendulum
 from .van_der_pol import VanDerPol as VanDerPol
