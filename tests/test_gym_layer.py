@@ -18,14 +18,24 @@ from lerax_like.gym import SPECS
 
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")  # check_env also opens the "human" mode
 
-REGISTERED = lerax_like.gym.register_envs()
+REGISTERED = lerax_like.gym.register_envs()  # already done by the import; returns the ids
 ALL_IDS = tuple(SPECS)
 
 
 def registered(env_id: str) -> str:
-    if env_id not in REGISTERED:
-        pytest.skip(f"the scene {SPECS[env_id].scene} is not in lerax_like.scenes on this branch")
+    assert env_id in REGISTERED and env_id in gymnasium.registry, env_id
     return env_id
+
+
+def test_import_registers_all_five_ids():
+    assert set(ALL_IDS) == {
+        "lerax_like/CartPole-v1",
+        "lerax_like/Pendulum-v1",
+        "lerax_like/Acrobot-v1",
+        "lerax_like/MountainCar-v0",
+        "lerax_like/MountainCarContinuous-v0",
+    }
+    assert set(ALL_IDS) <= set(gymnasium.registry)
 
 
 def reference_id(env_id: str) -> str:

@@ -113,7 +113,17 @@ def _functions(treedef, static):
             "solver_steps": jnp.where(reset_mask, 0, info["solver_steps"]),
         }
         observation = jax.vmap(observe_one, in_axes=(None, 0, 0, 0))(scene, next_y, steps, observation_keys)
-        return next_y, steps, observation, reward, terminated, truncated, info, key
+        # One array for everything per env but the observation: one transfer to the host.
+        outcome = jnp.stack(
+            [
+                reward.astype(next_y.dtype),
+                terminated.astype(next_y.dtype),
+                truncated.astype(next_y.dtype),
+                info["solver_ok"].astype(next_y.dtype),
+                info["solver_steps"].astype(next_y.dtype),
+            ]
+        )
+        return next_y, steps, observation, outcome, key
 
     @jax.jit
     def vector_observe(leaves, y, steps, key):
