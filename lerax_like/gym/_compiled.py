@@ -80,7 +80,17 @@ def _functions(treedef, static):
         key, step_key, observation_key = jr.split(key, 3)
         next_y, reward, terminated, info = transition(scene, y, steps, action, step_key)
         observation = observe_one(scene, next_y, steps + 1, observation_key)
-        return next_y, observation, reward, terminated, info, key
+        # The next state with, appended, the reward, the flag and the solver info: one
+        # transfer to the host instead of five.
+        outcome = jnp.concatenate(
+            [
+                next_y,
+                jnp.stack(
+                    [x.astype(next_y.dtype) for x in (reward, terminated, info["solver_ok"], info["solver_steps"])]
+                ),
+            ]
+        )
+        return outcome, observation, key
 
     @jax.jit
     def observe(leaves, y, steps, key):
