@@ -182,9 +182,8 @@ class Integrator(eqx.Module):
         if projection is None and velocity_indices is None:
             term = diffrax.ODETerm(vector_field)
         else:
-            term = ProjectedODETerm(vector_field, velocity_indices=velocity_indices)
-            if projection is not None:
-                term = ProjectedODETerm(vector_field, projection, velocity_indices)
+            optional = {} if projection is None else {"projection": projection}
+            term = ProjectedODETerm(vector_field, velocity_indices=velocity_indices, **optional)
         solution = diffrax.diffeqsolve(
             term,
             self.solver,
