@@ -80,7 +80,17 @@ def _functions(treedef, static):
         key, step_key, observation_key = jr.split(key, 3)
         next_y, reward, terminated, info = transition(scene, y, steps, action, step_key)
         observation = observe_one(scene, next_y, steps + 1, observation_key)
-        return next_y, observation, reward, terminated, info, key
+        # The next state with, appended, the reward, the flag and the solver info: one
+        # transfer to the host instead of five.
+        outcome = jnp.concatenate(
+            [
+                next_y,
+                jnp.stack(
+                    [x.astype(next_y.dtype) for x in (reward, terminated, info["solver_ok"], info["solver_steps"])]
+                ),
+            ]
+        )
+        return outcome, observation, key
 
     @jax.jit
     def observe(leaves, y, steps, key):
@@ -113,7 +123,17 @@ def _functions(treedef, static):
             "solver_steps": jnp.where(reset_mask, 0, info["solver_steps"]),
         }
         observation = jax.vmap(observe_one, in_axes=(None, 0, 0, 0))(scene, next_y, steps, observation_keys)
-        return next_y, steps, observation, reward, terminated, truncated, info, key
+        # One array for everything per env but the observation: one transfer to the host.
+        outcome = jnp.stack(
+            [
+                reward.astype(next_y.dtype),
+                terminated.astype(next_y.dtype),
+                truncated.astype(next_y.dtype),
+                info["solver_ok"].astype(next_y.dtype),
+                info["solver_steps"].astype(next_y.dtype),
+            ]
+        )
+        return next_y, steps, observation, outcome, key
 
     @jax.jit
     def vector_observe(leaves, y, steps, key):
