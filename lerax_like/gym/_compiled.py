@@ -96,7 +96,17 @@ def _functions(treedef, static):
         observation, terminated, info = guard_observation(
             scene, y, steps, observation, terminated, info, observation_key
         )
-        return next_y, observation, reward, terminated, info, key
+        # The next state with, appended, the reward, the flag and the solver info: one
+        # transfer to the host instead of five.
+        outcome = jnp.concatenate(
+            [
+                next_y,
+                jnp.stack(
+                    [x.astype(next_y.dtype) for x in (reward, terminated, info["solver_ok"], info["solver_steps"])]
+                ),
+            ]
+        )
+        return outcome, observation, key
 
     @jax.jit
     def observe(leaves, y, steps, key):
@@ -133,7 +143,17 @@ def _functions(treedef, static):
         observation, terminated, info = jax.vmap(guard_observation, in_axes=(None, 0, 0, 0, 0, 0, 0))(
             scene, previous_y, previous_steps, observation, terminated, info, observation_keys
         )
-        return next_y, steps, observation, reward, terminated, truncated, info, key
+        # One array for everything per env but the observation: one transfer to the host.
+        outcome = jnp.stack(
+            [
+                reward.astype(next_y.dtype),
+                terminated.astype(next_y.dtype),
+                truncated.astype(next_y.dtype),
+                info["solver_ok"].astype(next_y.dtype),
+                info["solver_steps"].astype(next_y.dtype),
+            ]
+        )
+        return next_y, steps, observation, outcome, key
 
     @jax.jit
     def vector_observe(leaves, y, steps, key):

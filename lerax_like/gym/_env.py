@@ -122,16 +122,19 @@ class GymnasiumEnv(gymnasium.Env):
         action = self._action(action)
         assert self._state is not None, "Call reset before using step method."
         with float64():
-            *outputs, self._jax_key = self._split.step(
+            outcome, observation, self._jax_key = self._split.step(
                 self._split.leaves, self._state, np.int64(self._steps), action, self._jax_key
             )
-            next_y, observation, reward, terminated, info = jax.device_get(outputs)
-        self._state = np.array(next_y)
+        # np.asarray, not jax.device_get: the latter costs far more for arrays this small.
+        outcome, observation = np.asarray(outcome), np.asarray(observation)
+        n = self._state.shape[0]
+        reward, terminated, solver_ok, solver_steps = outcome[n:]
+        self._state = np.array(outcome[:n])
         self._steps += 1
         self._last_action = action
         if self.render_mode == "human":
             self.render()
-        info = {"solver_ok": bool(info["solver_ok"]), "solver_steps": int(info["solver_steps"])}
+        info = {"solver_ok": bool(solver_ok), "solver_steps": int(solver_steps)}
         return np.array(observation), float(reward), bool(terminated), False, info
 
     def render(self):

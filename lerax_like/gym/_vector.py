@@ -156,19 +156,21 @@ class GymnasiumVectorEnv(VectorEnv):
                 ).T
             else:
                 reset_mask, reset_y = self._no_reset, self._y
-            self._y, self._steps, *outputs, self._jax_key = self._split.vector_step(
+            self._y, self._steps, observation, outcome, self._jax_key = self._split.vector_step(
                 self._split.leaves, self._y, self._steps, actions, self._jax_key, reset_mask, reset_y,
                 self._time_limit,
             )
-            observation, reward, terminated, truncated, info = jax.device_get(outputs)
-        terminated = np.array(terminated)
-        truncated = np.array(truncated)
+        # np.asarray, not jax.device_get: the latter costs far more for arrays this small.
+        observation, outcome = np.asarray(observation), np.asarray(outcome)
+        reward, terminated, truncated, solver_ok, solver_steps = outcome
+        terminated = terminated != 0
+        truncated = truncated != 0
         self._prev_done = terminated | truncated
         self._last_action = actions
         info = {
-            "solver_ok": np.array(info["solver_ok"]),
+            "solver_ok": solver_ok != 0,
             "_solver_ok": self._info_mask.copy(),
-            "solver_steps": np.array(info["solver_steps"]),
+            "solver_steps": solver_steps.astype(np.int64),
             "_solver_steps": self._info_mask.copy(),
         }
         return np.array(observation), np.array(reward), terminated, truncated, info
