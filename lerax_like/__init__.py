@@ -12,5 +12,7 @@ from .integrate import (
 from .physics import AbstractDynamics as AbstractDynamics, CartPoleDynamics as CartPoleDynamics
 from .scenes import CartPole as CartPole, CartPoleContinuous as CartPoleContinuous
 from .spaces import Box as Box, Discrete as Discrete
+from .physics import CartChainDynamics as CartChainDynamics, NLinkPendulumDynamics as NLinkPendulumDynamics
+from .scenes import DoubleCartPole as DoubleCartPole, NLinkPendulum as NLinkPendulum
 
 __version__ = "0.1.0"

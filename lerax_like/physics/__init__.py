@@ -5,3 +5,7 @@ from ._base import (
     AbstractDynamics as AbstractDynamics,
 )
 from .cartpole import CartPoleDynamics as CartPoleDynamics
+from .chain import (
+    CartChainDynamics as CartChainDynamics,
+    NLinkPendulumDynamics as NLinkPendulumDynamics,
+)

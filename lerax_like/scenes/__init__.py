@@ -5,3 +5,5 @@ from .cartpole import (
     CartPole as CartPole,
     CartPoleContinuous as CartPoleContinuous,
 )
+from .double_cartpole import DoubleCartPole as DoubleCartPole
+from .n_link_pendulum import NLinkPendulum as NLinkPendulum
