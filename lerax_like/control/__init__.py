@@ -1,0 +1,7 @@
+"""Control and identification by gradients through the model: system identification by
+multiple shooting, gradient model-predictive control, adaptive (refitting) MPC."""
+
+from .identification import (
+    fit_parameters as fit_parameters,
+    multiple_shooting_residuals as multiple_shooting_residuals,
+)
