@@ -5,6 +5,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
+import optimistix as optx
 import pytest
 import sympy as sp
 
@@ -253,3 +254,21 @@ def test_scenes_step_and_tasks(getkey):
     state, observation, reward, terminated, truncated, info = step(pendulum, state, jnp.array([0.5, -2.0]), getkey())
     assert bool(info["solver_ok"]) and observation.shape == (4,)
     assert jnp.allclose(pendulum.physical_input(jnp.array([0.5, -2.0])), jnp.array([1.5, -3.0]))
+
+
+def test_three_link_lengths_recovered_within_one_percent(getkey):
+    """Experiment 1 (IDS): lengths (3, 3, 3) from the guess (1, 5, 0.5), 1 s of state trajectories."""
+    from lerax_like.control import fit_parameters
+    from lerax_like.env import rollout
+
+    dt = 0.02
+    real = ll.NLinkPendulum(lengths=(3.0, 3.0, 3.0), dt=dt, solver=ll.make_integrator("rk4", substeps=10))
+    model = ll.NLinkPendulum(lengths=(1.0, 5.0, 0.5), dt=dt, solver="rk4")
+    actions = jnp.zeros((2, 50, 3))
+    starts = [real.initial(key=getkey()) for _ in range(2)]
+    states = jnp.stack(
+        [jnp.concatenate([s.y[None], rollout(real, s, a, key=getkey())[0]]) for s, a in zip(starts, actions)]
+    )
+    fitted, solution = fit_parameters(model, lambda env: env.dynamics.lengths, states, actions, window=2)
+    assert solution.result == optx.RESULTS.successful
+    assert float(jnp.max(jnp.abs(fitted.dynamics.lengths - 3.0) / 3.0)) < 0.01
