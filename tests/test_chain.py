@@ -168,16 +168,15 @@ def _solve_passive(dynamics, y0, rtol, t1=10.0):
     return solution.ys
 
 
-@pytest.mark.parametrize("rtol", [1e-8, 1e-10])
-def test_passive_chains_conserve_energy(rtol):
-    """Tsit5 keeps the energy of both passive chains, chaotic motion, for 10 s.
+def test_passive_chains_conserve_energy():
+    """Tsit5 keeps the energy of both passive chains, in chaotic motion, for 10 s.
 
-    The controller holds the local error per step near `rtol * |y|`; over the ~1e3-1e4
-    steps of 10 s those errors add up (the energy error does not grow exponentially
-    even though the trajectory is chaotic: it is a function of the state at each time,
-    and the solver's errors are errors across, not along, the energy surface at first
-    order), so the drift is bounded by a few thousand times `rtol`. We ask for
-    `1e3 * rtol` relative to the chain's energy scale `g * sum(m) * sum(l)`.
+    The controller holds the local error per step near `rtol * |y|` (atol = rtol, states
+    of order 1). The energy error is a function of the state error at each time and does
+    not grow exponentially with it at first order (errors along the flow leave the energy
+    unchanged), so it should stay within a modest multiple of `rtol`: we ask for
+    `50 * rtol` of the energy scale `g * sum(m) * sum(l)` (measured: 2 to 4 times `rtol`),
+    and that it falls with `rtol` (drift proportional to the tolerance, not a floor).
     """
     pendulum = NLinkPendulumDynamics(masses=(1.0, 2.0, 0.5), lengths=(3.0, 1.0, 2.0))
     double = CartChainDynamics(cart_mass=1.0, pole_masses=(0.5, 0.3), pole_lengths=(1.0, 0.7))
@@ -186,16 +185,20 @@ def test_passive_chains_conserve_energy(rtol):
         (double, jnp.array([0.0, 2.5, -2.0, 0.5, 1.0, 0.0]), double.pole_masses, double.pole_lengths),
     ]
     for dynamics, y0, masses, lengths in cases:
-        ys = _solve_passive(dynamics, y0, rtol)
-        energies = jax.vmap(dynamics.energy)(ys)
         scale = dynamics.gravity * jnp.sum(masses) * jnp.sum(lengths)
-        drift = float(jnp.max(jnp.abs(energies - energies[0])) / scale)
-        assert drift < 1e3 * rtol, drift
-        # The motion is not trivial: it moves through a good part of its energy.
-        assert float(jnp.max(jnp.abs(ys[:, -1]))) > 0.5
-    # The cart chain's horizontal momentum is conserved too.
-    momenta = jax.vmap(double.momentum)(_solve_passive(double, cases[1][1], rtol))
-    assert float(jnp.max(jnp.abs(momenta - momenta[0]))) < 1e3 * rtol * float(jnp.max(jnp.abs(momenta)) + 1.0)
+        drifts = {}
+        for rtol in (1e-8, 1e-10):
+            ys = _solve_passive(dynamics, y0, rtol)
+            energies = jax.vmap(dynamics.energy)(ys)
+            drifts[rtol] = float(jnp.max(jnp.abs(energies - energies[0])) / scale)
+            assert drifts[rtol] < 50 * rtol, (rtol, drifts[rtol])
+            # The motion is not trivial: the chain swings fast.
+            assert float(jnp.max(jnp.abs(ys[:, -1]))) > 0.5
+            if dynamics is double:
+                momenta = jax.vmap(double.momentum)(ys)
+                momentum_scale = float(jnp.max(jnp.abs(momenta)))
+                assert float(jnp.max(jnp.abs(momenta - momenta[0]))) < 50 * rtol * momentum_scale
+        assert drifts[1e-10] < drifts[1e-8] / 10
 
 
 def test_gradient_through_lengths_matches_finite_differences():

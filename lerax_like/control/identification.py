@@ -58,7 +58,7 @@ def fit_parameters(
     rtol: float = 1e-10,
     atol: float = 1e-10,
 ) -> tuple[AbstractEnv, optx.Solution]:
-    """Fit the positive parameters `where(env)` to observed trajectories.
+    """Fit the positive parameters `where(env)` (an array or a tuple of them) to observed trajectories.
 
     Least squares over the multiple-shooting residuals, by Levenberg-Marquardt
     (Jacobian by forward-mode autodiff through the
@@ -71,11 +71,11 @@ def fit_parameters(
     env = eqx.tree_at(lambda e: e.integrator.adjoint, env, diffrax.ForwardMode())
 
     def residuals(log_parameters, _):
-        model = eqx.tree_at(where, env, jnp.exp(log_parameters))
+        model = eqx.tree_at(where, env, jax.tree.map(jnp.exp, log_parameters))
         return multiple_shooting_residuals(model, states, actions, window)
 
     solver = optx.LevenbergMarquardt(rtol=rtol, atol=atol)
     solution = optx.least_squares(
-        residuals, solver, jnp.log(where(env)), max_steps=max_steps, throw=False
+        residuals, solver, jax.tree.map(jnp.log, where(env)), max_steps=max_steps, throw=False
     )
-    return eqx.tree_at(where, env, jnp.exp(solution.value)), solution
+    return eqx.tree_at(where, env, jax.tree.map(jnp.exp, solution.value)), solution
