@@ -96,10 +96,12 @@ def adaptive_mpc(
     transitions = 0
     report = {"succeeded": False, "episode_traces": []}
     for episode in range(max_episodes):
-        key, reset_key, warm_key = jr.split(key, 3)
+        key, reset_key = jr.split(key)
         state = real.initial(key=reset_key)
-        # A small random warm start breaks the symmetry of the hanging equilibrium.
-        actions = 0.3 * jr.normal(warm_key, (horizon, 1), dtype)
+        # A pumping warm start (period 1.5 s) breaks the symmetry of the hanging
+        # equilibrium, where the gradient of the cost vanishes.
+        times = jnp.arange(horizon, dtype=dtype) * real.dt
+        actions = (0.5 * jnp.sin(2 * jnp.pi * times / 1.5))[:, None]
         actions, _ = planner(model, state.y, actions, jnp.asarray(first_iterations))
         ys, taken = [state.y], []
         consecutive = 0
