@@ -5,3 +5,5 @@ from .identification import (
     fit_parameters as fit_parameters,
     multiple_shooting_residuals as multiple_shooting_residuals,
 )
+from .ilqr import ilqr as ilqr
+from .mpc import adaptive_mpc as adaptive_mpc
