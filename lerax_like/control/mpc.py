@@ -129,9 +129,9 @@ def adaptive_mpc(
         seen_actions.append(taken)
         if refit:
             # One-step residuals over every transition seen; episodes may differ in length.
-            states = jnp.concatenate([s[:-1] for s in seen_states])[None]
+            states = jnp.concatenate([s[:-1] for s in seen_states])
             next_states = jnp.concatenate([s[1:] for s in seen_states])
-            model = _refit(model, where, states[0], next_states, jnp.concatenate(seen_actions))
+            model = _refit(model, where, states, next_states, jnp.concatenate(seen_actions))
             estimates.append(where(model))
             if verbose:
                 print("  refitted:", jax.tree.map(np.asarray, where(model)))
