@@ -26,6 +26,8 @@ from .scenes import (
 from .physics import VanDerPolDynamics as VanDerPolDynamics
 from .scenes import VanDerPol as VanDerPol
 from .spaces import Box as Box, Discrete as Discrete
+from .physics import CartChainDynamics as CartChainDynamics, NLinkPendulumDynamics as NLinkPendulumDynamics
+from .scenes import DoubleCartPole as DoubleCartPole, NLinkPendulum as NLinkPendulum
 
 __version__ = "0.1.0"
 

@@ -9,3 +9,7 @@ from .cartpole import CartPoleDynamics as CartPoleDynamics
 from .mountain_car import MountainCarDynamics as MountainCarDynamics
 from .pendulum import PendulumDynamics as PendulumDynamics
 from .van_der_pol import VanDerPolDynamics as VanDerPolDynamics
+from .chain import (
+    CartChainDynamics as CartChainDynamics,
+    NLinkPendulumDynamics as NLinkPendulumDynamics,
+)

@@ -13,3 +13,5 @@ from .mountain_car import (
 )
 from .pendulum import Pendulum as Pendulum
 from .van_der_pol import VanDerPol as VanDerPol
+from .double_cartpole import DoubleCartPole as DoubleCartPole
+from .n_link_pendulum import NLinkPendulum as NLinkPendulum

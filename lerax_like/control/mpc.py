@@ -1,0 +1,146 @@
+"""Adaptive model-predictive control (IDS): plan with iLQR through a model env, act on
+the real env, refit the model's physical parameters from the transitions seen.
+
+`swing_up_stage_cost`, `swing_up_terminal_cost` and `upright` are the double cart-pole
+swing-up task as the controller sees it (the scene's reward is for reporting).
+"""
+
+from collections.abc import Callable
+
+import diffrax
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import jax.random as jr
+import numpy as np
+
+from .._types import Array, BoolScalar, Float, Key, Scalar
+from ..env import AbstractEnv, EnvState
+from .identification import fit_parameters
+from .ilqr import ilqr
+
+
+def _wrapped(angles):
+    return (angles + jnp.pi) % (2 * jnp.pi) - jnp.pi
+
+
+def swing_up_stage_cost(y: Float[Array, " 6"], action: Float[Array, " 1"]) -> Scalar:
+    """Both poles up (through `1 - cos`, so any number of turns counts), cart near 0, calm."""
+    _, theta1, theta2 = y[:3]
+    height = (1 - jnp.cos(theta1)) + (1 - jnp.cos(theta2))
+    return 2.0 * height + 0.05 * y[0] ** 2 + 0.05 * jnp.sum(y[3:] ** 2) + 0.01 * jnp.sum(action**2)
+
+
+def swing_up_terminal_cost(y: Float[Array, " 6"]) -> Scalar:
+    return 20.0 * swing_up_stage_cost(y, jnp.zeros((1,), dtype=y.dtype))
+
+
+def upright(y: Float[Array, " 6"], tolerance: float = 0.3) -> BoolScalar:
+    """Both poles within `tolerance` rad of upright (angles wrapped)."""
+    return jnp.all(jnp.abs(_wrapped(y[1:3])) < tolerance)
+
+
+def make_planner(
+    stage_cost: Callable = swing_up_stage_cost, terminal_cost: Callable = swing_up_terminal_cost
+):
+    """`plan(model, y, warm_start, iterations) -> (actions, cost)`, compiled once.
+
+    The model's integrator gets diffrax's `ForwardMode` adjoint: iLQR linearises each step
+    with `jax.jacfwd`.
+    """
+
+    @eqx.filter_jit
+    def plan(model: AbstractEnv, y, actions, iterations):
+        model = eqx.tree_at(lambda e: e.integrator.adjoint, model, diffrax.ForwardMode())
+        key = jr.key(0)  # deterministic transitions: the key is unused
+
+        def step(y, action):
+            state = EnvState(y=y, steps=jnp.zeros((), dtype=int))
+            return model.transition(state, action, key=key)[0].y
+
+        return ilqr(step, stage_cost, terminal_cost, y, actions, iterations=iterations)
+
+    return plan
+
+
+def adaptive_mpc(
+    real: AbstractEnv,
+    model: AbstractEnv,
+    where: Callable[[AbstractEnv], tuple],
+    *,
+    key: Key,
+    horizon: int = 60,
+    iterations: int = 10,
+    first_iterations: int = 100,
+    episode_steps: int = 160,
+    max_episodes: int = 3,
+    success_steps: int = 20,
+    refit: bool = True,
+    planner=None,
+    success: Callable = upright,
+    verbose: bool = False,
+) -> dict:
+    """Closed-loop iLQR-MPC episodes on `real`, refitting `where(model)` after each episode.
+
+    An episode succeeds when `success(y)` holds for `success_steps` consecutive steps;
+    the run stops at the first successful episode. Every transition seen so far (all
+    episodes) is used for the refit (`fit_parameters` with one-step residuals).
+    Returns `episodes` (run), `transitions` (real steps taken until success, or in all),
+    `succeeded`, the parameter estimates after each refit and per-episode traces.
+    """
+    planner = make_planner() if planner is None else planner
+    dtype = real.dt.dtype
+    step = eqx.filter_jit(lambda env, s, a, k: env.transition(s, a, key=k)[0])
+    seen_states, seen_actions = [], []
+    estimates = [where(model)]
+    transitions = 0
+    report = {"succeeded": False, "episode_traces": []}
+    for episode in range(max_episodes):
+        key, reset_key = jr.split(key)
+        state = real.initial(key=reset_key)
+        # A pumping warm start (period 1.5 s) breaks the symmetry of the hanging
+        # equilibrium, where the gradient of the cost vanishes.
+        times = jnp.arange(horizon, dtype=dtype) * real.dt
+        actions = (0.5 * jnp.sin(2 * jnp.pi * times / 1.5))[:, None]
+        actions, _ = planner(model, state.y, actions, jnp.asarray(first_iterations))
+        ys, taken = [state.y], []
+        consecutive = 0
+        succeeded = False
+        for _ in range(episode_steps):
+            actions, _ = planner(model, state.y, actions, jnp.asarray(iterations))
+            key, step_key = jr.split(key)
+            state = step(real, state, actions[0], step_key)
+            transitions += 1
+            ys.append(state.y)
+            taken.append(actions[0])
+            actions = jnp.concatenate([actions[1:], jnp.zeros((1, 1), dtype)])
+            consecutive = consecutive + 1 if bool(success(state.y)) else 0
+            if consecutive >= success_steps:
+                succeeded = True
+                break
+        ys, taken = jnp.stack(ys), jnp.stack(taken)
+        report["episode_traces"].append({"states": np.asarray(ys), "actions": np.asarray(taken)})
+        if verbose:
+            print(f"episode {episode + 1}: {'swung up' if succeeded else 'failed'} after {len(taken)} steps")
+        if succeeded:
+            report["succeeded"] = True
+            break
+        seen_states.append(ys)
+        seen_actions.append(taken)
+        if refit:
+            # One-step residuals over every transition seen; episodes may differ in length.
+            states = jnp.concatenate([s[:-1] for s in seen_states])
+            next_states = jnp.concatenate([s[1:] for s in seen_states])
+            model = _refit(model, where, states, next_states, jnp.concatenate(seen_actions))
+            estimates.append(where(model))
+            if verbose:
+                print("  refitted:", jax.tree.map(np.asarray, where(model)))
+    report.update(episodes=episode + 1, transitions=transitions, estimates=estimates, model=model)
+    return report
+
+
+def _refit(model, where, states, next_states, actions):
+    # Transitions as trajectories of one step each: window 1 on (N, 2, n) "trajectories".
+    pairs = jnp.stack([states, next_states], axis=1)
+    fitted, _ = fit_parameters(model, where, pairs, actions[:, None, :], window=1, max_steps=50)
+    return fitted
