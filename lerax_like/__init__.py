@@ -5,12 +5,29 @@ from .env import AbstractEnv as AbstractEnv, EnvState as EnvState, rollout as ro
 from .integrate import (
     Integrator as Integrator,
     RK4 as RK4,
+    SemiImplicitEuler as SemiImplicitEuler,
     SOLVER_PRESETS as SOLVER_PRESETS,
     has_error_estimate as has_error_estimate,
     make_integrator as make_integrator,
 )
 from .physics import AbstractDynamics as AbstractDynamics, CartPoleDynamics as CartPoleDynamics
+from .physics import (
+    AcrobotDynamics as AcrobotDynamics,
+    MountainCarDynamics as MountainCarDynamics,
+    PendulumDynamics as PendulumDynamics,
+)
 from .scenes import CartPole as CartPole, CartPoleContinuous as CartPoleContinuous
+from .scenes import (
+    Acrobot as Acrobot,
+    MountainCar as MountainCar,
+    MountainCarContinuous as MountainCarContinuous,
+    Pendulum as Pendulum,
+)
 from .spaces import Box as Box, Discrete as Discrete
 
 __version__ = "0.1.0"
+
+# The Gymnasium ids (`gymnasium.make("lerax_like/CartPole-v1")`), registered on import.
+from . import gym as gym
+
+gym.register_envs()

@@ -77,8 +77,22 @@ class AbstractEnv(eqx.Module):
     def terminal(self, state: EnvState, *, key: Key) -> BoolScalar:
         """Whether `state` ends the episode (the task's own end, not a time limit)."""
 
+    def project(self, y: State) -> State:
+        """Map a state onto the scene's admissible states (speed limits, walls, wrapping).
+
+        Identity unless a scene overrides it. It must be idempotent. `transition` hands
+        it to the integrator, which applies it after every step whatever the solver, and
+        inside the step with `SemiImplicitEuler` (between the velocity and the position
+        updates): that is how Gymnasium's clipped envs are reproduced without a
+        special case per env.
+        """
+        return y
+
     def transition(self, state: EnvState, action: Array, *, key: Key) -> tuple[EnvState, dict[str, Array]]:
         """Integrate the dynamics over `[0, dt]` with the action's input held constant.
+
+        The end state is projected by `project`; with `SemiImplicitEuler`, the state
+        after the velocity update is projected too (see `Integrator.integrate`).
 
         The info holds `solver_ok` and `solver_steps`. A failed solve (non-finite state,
         exhausted step budget) keeps the pre-step state, so that nothing non-finite
@@ -86,7 +100,14 @@ class AbstractEnv(eqx.Module):
         """
         del key
         u = self.physical_input(action)
-        y, info = self.integrator.integrate(self.dynamics.vector_field, state.y, u, self.dt)
+        y, info = self.integrator.integrate(
+            self.dynamics.vector_field,
+            state.y,
+            u,
+            self.dt,
+            projection=self.project,
+            velocity_indices=self.dynamics.velocity_indices,
+        )
         y = jnp.where(info["solver_ok"], y, state.y)
         return EnvState(y=y, steps=state.steps + 1), info
 

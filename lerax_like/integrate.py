@@ -16,6 +16,7 @@ import numpy as np
 import optimistix
 
 from ._checks import check_count
+from ._semi_implicit import ProjectedODETerm as ProjectedODETerm, SemiImplicitEuler as SemiImplicitEuler
 from ._types import Array, BoolScalar, Input, IntScalar, ScalarLike, State
 
 
@@ -66,6 +67,7 @@ _PRESETS: dict[str, tuple[Callable[[], diffrax.AbstractSolver], Callable[[], dif
     "dopri5": (diffrax.Dopri5, lambda: _adaptive(1e-6, 1e-9)),
     "dopri8": (diffrax.Dopri8, lambda: _adaptive(1e-8, 1e-11)),
     "kvaerno5": (lambda: diffrax.Kvaerno5(root_finder=_implicit_root_finder()), lambda: _adaptive(1e-6, 1e-9)),
+    "semi_implicit_euler": (SemiImplicitEuler, diffrax.ConstantStepSize),
 }
 
 SOLVER_PRESETS: tuple[str, ...] = tuple(_PRESETS)
@@ -74,6 +76,8 @@ SOLVER_PRESETS: tuple[str, ...] = tuple(_PRESETS)
 
 def has_error_estimate(solver: diffrax.AbstractSolver) -> bool:
     """Whether `solver` provides the local error estimate an adaptive controller needs."""
+    if isinstance(solver, SemiImplicitEuler):
+        return False
     tableau = getattr(solver, "tableau", None)
     if isinstance(tableau, diffrax.ButcherTableau):
         return bool(np.any(np.asarray(tableau.b_error) != 0))
@@ -158,16 +162,31 @@ class Integrator(eqx.Module):
         y0: State,
         u: Input,
         dt: ScalarLike,
+        *,
+        projection: Callable[[State], State] | None = None,
+        velocity_indices: tuple[int, ...] | None = None,
     ) -> tuple[State, dict[str, Array]]:
         """Solve `dy/dt = vector_field(t, y, u)` over `[0, dt]` from `y0`.
+
+        `projection` (idempotent) maps states onto the admissible set (speed limits,
+        walls, angle wrapping): it is applied to the end state whatever the solver, and
+        inside the step by solvers that know of it (`SemiImplicitEuler`, between its
+        velocity and position updates). `velocity_indices` names the velocity components
+        of a second-order state, which `SemiImplicitEuler` needs.
 
         Returns the state at `dt` and `{"solver_ok", "solver_steps"}`. `solver_ok` is
         False when the solver failed (step budget exhausted, step size collapsed, root
         finder diverged) or the state is not finite; the state is then not to be used.
         """
         dt = jnp.asarray(dt, dtype=y0.dtype)
+        if projection is None and velocity_indices is None:
+            term = diffrax.ODETerm(vector_field)
+        else:
+            term = ProjectedODETerm(vector_field, velocity_indices=velocity_indices)
+            if projection is not None:
+                term = ProjectedODETerm(vector_field, projection, velocity_indices)
         solution = diffrax.diffeqsolve(
-            diffrax.ODETerm(vector_field),
+            term,
             self.solver,
             t0=jnp.zeros((), dtype=y0.dtype),
             t1=dt,
@@ -180,6 +199,8 @@ class Integrator(eqx.Module):
             throw=False,
         )
         y1 = solution.ys[-1]
+        if projection is not None:
+            y1 = projection(y1)
         ok: BoolScalar = (solution.result == diffrax.RESULTS.successful) & jnp.all(jnp.isfinite(y1))
         steps: IntScalar = solution.stats["num_accepted_steps"]
         return y1, {"solver_ok": ok, "solver_steps": steps}

@@ -1,4 +1,5 @@
 import abc
+from typing import ClassVar
 
 import equinox as eqx
 
@@ -11,7 +12,13 @@ class AbstractDynamics(eqx.Module):
     Subclasses hold their physical parameters as array fields (differentiable leaves)
     and implement `vector_field`. They know nothing of rewards, observations, action
     spaces or rendering: those belong to a scene.
+
+    A second-order (mechanical) system declares `velocity_indices`, the components of
+    its state that are velocities (the others are positions): partitioned solvers such
+    as `SemiImplicitEuler` need them.
     """
+
+    velocity_indices: ClassVar[tuple[int, ...] | None] = None
 
     @abc.abstractmethod
     def vector_field(self, t: ScalarLike, y: State, u: Input) -> State:

@@ -1,3 +1,5 @@
+from typing import ClassVar
+
 import jax.numpy as jnp
 
 from .._checks import as_parameter, check_positive
@@ -16,6 +18,8 @@ class CartPoleDynamics(AbstractConservativeDynamics):
     State `y = [x, x_dot, theta, theta_dot]` (Gymnasium's order), with `theta` measured
     from upright, positive towards `+x`.
     """
+
+    velocity_indices: ClassVar[tuple[int, ...]] = (1, 3)
 
     gravity: Scalar
     cart_mass: Scalar

@@ -5,3 +5,10 @@ from .cartpole import (
     CartPole as CartPole,
     CartPoleContinuous as CartPoleContinuous,
 )
+from .acrobot import Acrobot as Acrobot
+from .mountain_car import (
+    AbstractMountainCar as AbstractMountainCar,
+    MountainCar as MountainCar,
+    MountainCarContinuous as MountainCarContinuous,
+)
+from .pendulum import Pendulum as Pendulum

@@ -1,0 +1,128 @@
+"""The compiled steps behind the Gymnasium wrappers, and the float64 scope they run in.
+
+A scene is split once into its array leaves and its static rest. The jitted functions
+take the leaves as an argument (so a changed physical parameter needs no recompile) and
+close over the static rest; they are cached by that rest, so every env of the same
+configuration (`check_env` and `make_vec` build several) shares one compilation. This
+avoids `eqx.filter_jit`, whose per-call partitioning would dominate a step this small.
+"""
+
+import functools
+from collections.abc import Callable
+from typing import Any
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import jax.random as jr
+
+from ..env import AbstractEnv, EnvState
+
+
+def float64():
+    """The scope every call into the scene runs in: float64, without a global switch."""
+    return jax.enable_x64(True)
+
+
+def build_scene(scene_cls: type[AbstractEnv], kwargs: dict[str, Any]) -> AbstractEnv:
+    """Construct the scene in float64, so that its parameters are float64 leaves."""
+    with float64():
+        return scene_cls(**kwargs)
+
+
+class SplitScene:
+    """A scene as (array leaves, treedef, static rest), with the compiled functions for it."""
+
+    def __init__(self, scene: AbstractEnv):
+        params, static = eqx.partition(scene, eqx.is_array)
+        leaves, treedef = jax.tree.flatten(params)
+        self.scene = scene
+        self.leaves = leaves
+        functions = _functions(treedef, static)
+        self.step, self.observe, self.vector_step, self.vector_observe = functions
+
+
+def _cache(function: Callable) -> Callable:
+    cached = functools.lru_cache(maxsize=64)(function)
+
+    @functools.wraps(function)
+    def wrapper(*args):
+        try:
+            return cached(*args)
+        except TypeError:  # an unhashable static part: compile for this env alone
+            return function(*args)
+
+    return wrapper
+
+
+@_cache
+def _functions(treedef, static):
+    def scene_of(leaves) -> AbstractEnv:
+        return eqx.combine(jax.tree.unflatten(treedef, leaves), static)
+
+    def transition(scene, y, steps, action, key):
+        state = EnvState(y=y, steps=steps)
+        transition_key, reward_key, terminal_key = jr.split(key, 3)
+        next_state, info = scene.transition(state, action, key=transition_key)
+        reward = scene.reward(state, action, next_state, key=reward_key)
+        # As `AbstractEnv.step`: a failed solve ends the episode.
+        terminated = scene.terminal(next_state, key=terminal_key) | ~info["solver_ok"]
+        return next_state.y, reward, terminated, info
+
+    def observe_one(scene, y, steps, key):
+        observation = scene.observation(EnvState(y=y, steps=steps), key=key)
+        # Gymnasium computes in float64 and returns float32 observations.
+        return observation.astype(jnp.float32)
+
+    @jax.jit
+    def step(leaves, y, steps, action, key):
+        scene = scene_of(leaves)
+        key, step_key, observation_key = jr.split(key, 3)
+        next_y, reward, terminated, info = transition(scene, y, steps, action, step_key)
+        observation = observe_one(scene, next_y, steps + 1, observation_key)
+        return next_y, observation, reward, terminated, info, key
+
+    @jax.jit
+    def observe(leaves, y, steps, key):
+        key, observation_key = jr.split(key)
+        return observe_one(scene_of(leaves), y, steps, observation_key), key
+
+    @jax.jit
+    def vector_step(leaves, y, steps, action, key, reset_mask, reset_y, max_episode_steps):
+        """All envs step; then those whose episode ended at the previous step restart.
+
+        Gymnasium's next-step autoreset: a restarted env (`reset_mask`) continues from
+        `reset_y` and returns its fresh observation, reward 0, terminated and truncated
+        False. One compilation serves every time limit and every pattern of restarts.
+        """
+        scene = scene_of(leaves)
+        num_envs = y.shape[0]
+        key, step_key, observation_key = jr.split(key, 3)
+        step_keys = jr.split(step_key, num_envs)
+        observation_keys = jr.split(observation_key, num_envs)
+        next_y, reward, terminated, info = jax.vmap(transition, in_axes=(None, 0, 0, 0, 0))(
+            scene, y, steps, action, step_keys
+        )
+        next_y = jnp.where(reset_mask[:, None], reset_y, next_y)
+        steps = jnp.where(reset_mask, 0, steps + 1)
+        reward = jnp.where(reset_mask, 0, reward)
+        terminated = terminated & ~reset_mask
+        truncated = (steps >= max_episode_steps) & ~reset_mask
+        info = {
+            "solver_ok": info["solver_ok"] | reset_mask,
+            "solver_steps": jnp.where(reset_mask, 0, info["solver_steps"]),
+        }
+        observation = jax.vmap(observe_one, in_axes=(None, 0, 0, 0))(scene, next_y, steps, observation_keys)
+        return next_y, steps, observation, reward, terminated, truncated, info, key
+
+    @jax.jit
+    def vector_observe(leaves, y, steps, key):
+        key, observation_key = jr.split(key)
+        observation_keys = jr.split(observation_key, y.shape[0])
+        observation = jax.vmap(observe_one, in_axes=(None, 0, 0, 0))(scene_of(leaves), y, steps, observation_keys)
+        return observation, key
+
+    return step, observe, vector_step, vector_observe
+
+
+__all__ = ["SplitScene", "build_scene", "float64"]

@@ -1,0 +1,201 @@
+"""`GymnasiumVectorEnv`: many copies of a scene stepped by one compiled, batched step."""
+
+from typing import Any
+
+import gymnasium
+import jax
+import jax.numpy as jnp
+import numpy as np
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from . import _render
+from ._compiled import SplitScene, build_scene, float64
+from ._env import _key
+from ._spaces import to_gymnasium_space
+from ._specs import GymSpec
+
+
+class GymnasiumVectorEnv(VectorEnv):
+    """`num_envs` copies of a scene (what `gymnasium.make_vec("lerax_like/<id>", N,
+    vectorization_mode="vector_entry_point")` builds).
+
+    One call of `step` is one compiled, batched step of all envs, integrated in float64.
+    It follows Gymnasium's next-step autoreset, as Gymnasium's vector CartPole does: the
+    step after an episode ends (terminated, or truncated after `max_episode_steps`)
+    restarts that env, returning its fresh observation, reward 0 and terminated and
+    truncated False. Initial states are drawn on the host from `self.np_random` with the
+    calls of Gymnasium's vector CartPole (`uniform(size=(4, num_envs))` at reset, one
+    draw of shape `(4, number of ended envs)` at a step that restarts some), and only at
+    such steps; so for CartPole the same seed and actions give Gymnasium's numbers.
+
+    `state` is the float64 state in the layout of Gymnasium's vector CartPole
+    (`(n, num_envs)`), readable and writable. The info holds the per-env `solver_ok` and
+    `solver_steps`, with Gymnasium's `_name` masks. Rewards are float64.
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 50, "autoreset_mode": AutoresetMode.NEXT_STEP}
+
+    def __init__(
+        self,
+        spec: GymSpec,
+        num_envs: int = 1,
+        max_episode_steps: int | None = None,
+        render_mode: str | None = None,
+        **scene_kwargs: Any,
+    ):
+        from .. import scenes
+
+        if not isinstance(num_envs, int) or num_envs < 1:
+            raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
+        if max_episode_steps is not None and (not isinstance(max_episode_steps, int) or max_episode_steps < 1):
+            raise ValueError(f"max_episode_steps must be None or an integer >= 1, got {max_episode_steps!r}")
+        self._gym_spec = spec
+        self.num_envs = num_envs
+        self.max_episode_steps = max_episode_steps
+        scene = build_scene(getattr(scenes, spec.scene), scene_kwargs)
+        self._split = SplitScene(scene)
+        with float64():
+            self.single_action_space = to_gymnasium_space(scene.action_space)
+            self.single_observation_space = to_gymnasium_space(scene.observation_space)
+        self.action_space = batch_space(self.single_action_space, num_envs)
+        self.observation_space = batch_space(self.single_observation_space, num_envs)
+        self.metadata = {**self.metadata, "render_fps": _render.render_fps(spec)}
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}")
+        self.render_mode = render_mode
+        self._renderer = None
+        self._discrete = isinstance(self.single_action_space, gymnasium.spaces.Discrete)
+        self._options: dict[str, Any] | None = None
+        self._y: jax.Array | None = None
+        self._steps: jax.Array | None = None
+        self._prev_done = np.zeros(num_envs, dtype=np.bool_)
+        self._last_action: np.ndarray | None = None
+        self._jax_key = _key(0)
+        self._info_mask = np.ones(num_envs, dtype=np.bool_)
+        self._warm_up()
+
+    @property
+    def scene(self):
+        """The functional env behind these. Assign a modified scene to change parameters."""
+        return self._split.scene
+
+    @scene.setter
+    def scene(self, scene) -> None:
+        self._split = SplitScene(scene)
+
+    @property
+    def state(self) -> np.ndarray | None:
+        """The states, float64, shape `(n, num_envs)` (Gymnasium's vector CartPole layout)."""
+        return None if self._y is None else np.array(self._y).T
+
+    @state.setter
+    def state(self, value) -> None:
+        value = np.asarray(value, dtype=np.float64)
+        with float64():
+            self._y = jnp.asarray(value.T)
+            if self._steps is None:
+                self._steps = jnp.zeros(self.num_envs, dtype=int)
+
+    def _warm_up(self) -> None:
+        # Compile the step and the observation now, not in the first step of training.
+        y = self._gym_spec.initial_state(np.random.default_rng(0), None, self.num_envs).T
+        with float64():
+            self._no_reset = jnp.zeros(self.num_envs, dtype=bool)
+            self._time_limit = jnp.asarray(
+                np.iinfo(np.int64).max if self.max_episode_steps is None else self.max_episode_steps
+            )
+            y, steps = jnp.asarray(y), jnp.zeros(self.num_envs, dtype=int)
+            leaves, key = self._split.leaves, self._jax_key
+            actions = self._actions(self._zero_actions())
+            jax.block_until_ready(self._split.vector_observe(leaves, y, steps, key))
+            jax.block_until_ready(
+                self._split.vector_step(leaves, y, steps, actions, key, self._no_reset, y, self._time_limit)
+            )
+
+    def _zero_actions(self):
+        if self._discrete:
+            return np.full(self.num_envs, self.single_action_space.start, dtype=np.int64)
+        return np.zeros((self.num_envs, *self.single_action_space.shape), dtype=np.float32)
+
+    def _actions(self, actions) -> np.ndarray:
+        if self._discrete:
+            assert self.action_space.contains(actions), f"{actions!r} ({type(actions)}) invalid"
+            return np.asarray(actions, dtype=np.int64)
+        array = np.asarray(actions, dtype=np.float64)
+        shape = (self.num_envs, *self.single_action_space.shape)
+        if array.size != np.prod(shape):
+            raise ValueError(f"the actions must have shape {shape}, got an array of shape {array.shape}")
+        return array.reshape(shape)
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        super().reset(seed=seed)
+        if seed is not None:
+            self._jax_key = _key(seed)
+        self._options = options
+        y = self._gym_spec.initial_state(self.np_random, options, self.num_envs).T
+        with float64():
+            self._y = jnp.asarray(y)
+            self._steps = jnp.zeros(self.num_envs, dtype=int)
+            observation, self._jax_key = self._split.vector_observe(self._split.leaves, self._y, self._steps, self._jax_key)
+            observation = np.array(observation)
+        self._prev_done = np.zeros(self.num_envs, dtype=np.bool_)
+        self._last_action = None
+        return observation, {}
+
+    def step(self, actions):
+        actions = self._actions(actions)
+        assert self._y is not None, "Call reset before using step method."
+        with float64():
+            if self._prev_done.any():
+                # Gymnasium's vector CartPole draws only when some env restarts, for those envs.
+                reset_mask = self._prev_done
+                reset_y = np.zeros(self._y.shape)
+                reset_y[reset_mask] = self._gym_spec.initial_state(
+                    self.np_random, self._options, int(reset_mask.sum())
+                ).T
+            else:
+                reset_mask, reset_y = self._no_reset, self._y
+            self._y, self._steps, *outputs, self._jax_key = self._split.vector_step(
+                self._split.leaves, self._y, self._steps, actions, self._jax_key, reset_mask, reset_y,
+                self._time_limit,
+            )
+            observation, reward, terminated, truncated, info = jax.device_get(outputs)
+        terminated = np.array(terminated)
+        truncated = np.array(truncated)
+        self._prev_done = terminated | truncated
+        self._last_action = actions
+        info = {
+            "solver_ok": np.array(info["solver_ok"]),
+            "_solver_ok": self._info_mask.copy(),
+            "solver_steps": np.array(info["solver_steps"]),
+            "_solver_steps": self._info_mask.copy(),
+        }
+        return np.array(observation), np.array(reward), terminated, truncated, info
+
+    def render(self):
+        if self.render_mode is None:
+            gymnasium.logger.warn(
+                "You are calling render method without specifying any render mode. "
+                "You can specify the render_mode at initialization, "
+                f'e.g. gym.make_vec("{self._gym_spec.id}", render_mode="rgb_array")'
+            )
+            return None
+        states = self.state
+        if states is None:
+            raise ValueError("the state is None: call reset before render")
+        if self._renderer is None:
+            self._renderer = _render.make_renderer(self._gym_spec, self.render_mode)
+        actions = [None] * self.num_envs if self._last_action is None else list(self._last_action)
+        return [
+            _render.draw(self._renderer, self._gym_spec, self.scene, state, action)
+            for state, action in zip(states.T, actions, strict=True)
+        ]
+
+    def close_extras(self, **kwargs: Any) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+
+__all__ = ["GymnasiumVectorEnv"]

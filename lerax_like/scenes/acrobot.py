@@ -1,0 +1,161 @@
+import math
+from typing import Literal
+
+import diffrax
+import equinox as eqx
+import jax.numpy as jnp
+import jax.random as jr
+
+from .._checks import as_parameter, check_positive, check_positive_or_inf
+from .._types import Array, BoolScalar, Input, Key, Scalar, ScalarLike, State
+from ..env import AbstractEnv, EnvState
+from ..integrate import Integrator, make_integrator
+from ..physics import AcrobotDynamics
+from ..spaces import Box, Discrete
+
+
+SolverLike = "str | diffrax.AbstractSolver | Integrator"
+
+
+def _wrap(x: Scalar, low: float, high: float) -> Scalar:
+    """Gymnasium's `wrap`: shift `x` by whole periods into `[low, high]`.
+
+    Gymnasium subtracts (or adds) the period in a loop; one shift is `x - period`
+    exactly as there, and rarer multiple shifts agree to the ulp.
+    """
+    period = high - low
+    above = jnp.ceil((x - high) / period)
+    x = jnp.where(x > high, x - above * period, x)
+    below = jnp.ceil((low - x) / period)
+    return jnp.where(x < low, x + below * period, x)
+
+
+class Acrobot(AbstractEnv):
+    """Swing the tip of a two-link arm, actuated at the elbow only, above a line (Acrobot-v1).
+
+    ## Description
+    Two links hinged in series (`AcrobotDynamics`, Sutton and Barto's "book" equations),
+    hanging from a fixed pivot; a torque acts between the links. With `solver="rk4"`
+    (the default) a step is Gymnasium's step: one classic Runge--Kutta step over `dt`,
+    then the angles are wrapped to `[-pi, pi]` and the angular velocities clipped to
+    `max_velocity_1`, `max_velocity_2` (the projection, applied after any solver's step).
+
+    ## Action Space
+    `Discrete(3)`: a torque of `-torque`, 0 or `+torque` (N m) at the elbow.
+
+    ## Observation Space
+    `[cos(theta_1), sin(theta_1), cos(theta_2), sin(theta_2), theta_1_dot, theta_2_dot]`.
+
+    ## Rewards
+    -1 for every step that does not reach the goal, 0 for the step that does.
+
+    ## Starting State
+    All four state coordinates uniform in `(-0.1, 0.1)`.
+
+    ## Episode End
+    Terminated when the tip is more than one link length above the pivot,
+    `-cos(theta_1) - cos(theta_1 + theta_2) > 1`, or when the integration fails.
+    Truncated after `max_episode_steps` (500) steps.
+
+    ## Arguments
+    The physical parameters of `AcrobotDynamics` (`gravity`, `link_length_1`,
+    `link_mass_1`, `link_mass_2`, `link_com_position_1`, `link_com_position_2`,
+    `link_moment_of_inertia_1`, `link_moment_of_inertia_2`, `equations`), `torque` (1),
+    `max_velocity_1` (4 pi), `max_velocity_2` (9 pi), `dt` (0.2), `solver`,
+    `stepsize_controller`, `max_episode_steps`. Gymnasium's optional torque noise
+    (`torque_noise_max`, 0 by default there) is not modelled.
+    """
+
+    dynamics: AcrobotDynamics
+    integrator: Integrator
+    dt: Scalar
+    torque: Scalar
+    max_velocity_1: Scalar
+    max_velocity_2: Scalar
+    max_episode_steps: int | None = eqx.field(static=True)
+
+    def __init__(
+        self,
+        *,
+        gravity: ScalarLike = 9.8,
+        link_length_1: ScalarLike = 1.0,
+        link_mass_1: ScalarLike = 1.0,
+        link_mass_2: ScalarLike = 1.0,
+        link_com_position_1: ScalarLike = 0.5,
+        link_com_position_2: ScalarLike = 0.5,
+        link_moment_of_inertia_1: ScalarLike = 1.0,
+        link_moment_of_inertia_2: ScalarLike = 1.0,
+        equations: Literal["book", "nips"] = "book",
+        torque: ScalarLike = 1.0,
+        max_velocity_1: ScalarLike = 4 * math.pi,
+        max_velocity_2: ScalarLike = 9 * math.pi,
+        dt: ScalarLike = 0.2,
+        solver: SolverLike = "rk4",
+        stepsize_controller: diffrax.AbstractStepSizeController | None = None,
+        max_episode_steps: int | None = 500,
+    ):
+        check_positive(torque, "torque")
+        check_positive_or_inf(max_velocity_1, "max_velocity_1")
+        check_positive_or_inf(max_velocity_2, "max_velocity_2")
+        check_positive(dt, "dt")
+        self.dynamics = AcrobotDynamics(
+            gravity=gravity,
+            link_length_1=link_length_1,
+            link_mass_1=link_mass_1,
+            link_mass_2=link_mass_2,
+            link_com_position_1=link_com_position_1,
+            link_com_position_2=link_com_position_2,
+            link_moment_of_inertia_1=link_moment_of_inertia_1,
+            link_moment_of_inertia_2=link_moment_of_inertia_2,
+            equations=equations,
+        )
+        self.integrator = make_integrator(solver, stepsize_controller)
+        self.dt = as_parameter(dt, "dt")
+        self.torque = as_parameter(torque, "torque")
+        self.max_velocity_1 = as_parameter(max_velocity_1, "max_velocity_1")
+        self.max_velocity_2 = as_parameter(max_velocity_2, "max_velocity_2")
+        self.max_episode_steps = max_episode_steps
+
+    @property
+    def action_space(self) -> Discrete:
+        return Discrete(3)
+
+    @property
+    def observation_space(self) -> Box:
+        one = jnp.ones_like(self.max_velocity_1)
+        high = jnp.stack([one, one, one, one, self.max_velocity_1, self.max_velocity_2])
+        return Box(-high, high)
+
+    def initial(self, *, key: Key) -> EnvState:
+        y = jr.uniform(key, (4,), self.dt.dtype, minval=-0.1, maxval=0.1)
+        return EnvState(y=y, steps=jnp.zeros((), dtype=int))
+
+    def physical_input(self, action: Array) -> Input:
+        return ((jnp.asarray(action).astype(self.torque.dtype) - 1.0) * self.torque)[None]
+
+    def project(self, y: State) -> State:
+        theta_1, theta_2, dtheta_1, dtheta_2 = y
+        return jnp.stack(
+            [
+                _wrap(theta_1, -math.pi, math.pi),
+                _wrap(theta_2, -math.pi, math.pi),
+                jnp.clip(dtheta_1, -self.max_velocity_1, self.max_velocity_1),
+                jnp.clip(dtheta_2, -self.max_velocity_2, self.max_velocity_2),
+            ]
+        )
+
+    def observation(self, state: EnvState, *, key: Key) -> Array:
+        del key
+        theta_1, theta_2, dtheta_1, dtheta_2 = state.y
+        return jnp.stack(
+            [jnp.cos(theta_1), jnp.sin(theta_1), jnp.cos(theta_2), jnp.sin(theta_2), dtheta_1, dtheta_2]
+        )
+
+    def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key) -> Scalar:
+        del state, action
+        return jnp.where(self.terminal(next_state, key=key), 0.0, -1.0).astype(self.dt.dtype)
+
+    def terminal(self, state: EnvState, *, key: Key) -> BoolScalar:
+        del key
+        theta_1, theta_2 = state.y[0], state.y[1]
+        return -jnp.cos(theta_1) - jnp.cos(theta_2 + theta_1) > 1.0
