@@ -123,7 +123,8 @@ def main():
         for name, mode in modes.items():
             candidates[name] = gymnasium_runner(num_envs, num_steps, mode)
             candidates[name]()
-        times = interleaved(candidates, repeats)
+        # Small batches are quick and noisier: more repeats.
+        times = interleaved(candidates, repeats if num_envs >= 1024 else 3 * repeats)
         gymnax_best = summary(times["gymnax"])[0]
         for name, seconds in times.items():
             best, median = summary(seconds)
