@@ -12,7 +12,8 @@ episode ends:
   `jax.device_get` (what any layer must at least do per step);
 - Gymnasium's numpy `CartPole-v1` through `gymnasium.make` and unwrapped.
 Vector envs at N (default 1024): `make_vec("lerax_like/CartPole-v1", vectorization_mode=
-"vector_entry_point")` against Gymnasium's numpy vector CartPole, steps per second.
+"vector_entry_point")` against Gymnasium's numpy vector CartPole, steps per second, and the
+vector step's JAX floor (a bare jitted call with its inputs and outputs, plus `device_get`).
 
 Each candidate is timed per call; a block's statistic is the median call, and the
 blocks of all candidates are interleaved; the minimum over blocks is reported.
@@ -128,6 +129,37 @@ def vector_stepper(env, num_steps):
     return block
 
 
+def vector_floor_stepper(env, num_steps):
+    """The JAX floor of a vector step: a bare jitted call with the layer's vector inputs and outputs."""
+    unwrapped = env.unwrapped if hasattr(env, "unwrapped") else env
+    split = unwrapped._split
+    env.reset(seed=0)
+    y, steps, key = unwrapped._y, unwrapped._steps, unwrapped._jax_key
+    reset_mask, time_limit = unwrapped._no_reset, unwrapped._time_limit
+    rng = np.random.default_rng(0)
+    num_envs = env.num_envs
+
+    @jax.jit
+    def bare(leaves, y, steps, action, key, reset_mask, reset_y, max_episode_steps):
+        del leaves, action, reset_y, max_episode_steps
+        info = {"solver_ok": reset_mask, "solver_steps": steps.astype(jnp.int32)}
+        return y, steps, y.astype(jnp.float32), y[:, 0], reset_mask, reset_mask, info, key
+
+    def block():
+        start = time.perf_counter()
+        with float64():
+            for _ in range(num_steps):
+                actions = rng.integers(0, 2, num_envs)
+                _, _, *outputs, _ = bare(split.leaves, y, steps, actions, key, reset_mask, y, time_limit)
+                jax.device_get(outputs)
+        return time.perf_counter() - start
+
+    with float64():
+        jax.block_until_ready(bare(split.leaves, y, steps, np.zeros(num_envs, dtype=np.int64), key, reset_mask, y,
+                                   time_limit))
+    return block
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--quick", action="store_true", help="fewer steps and repeats")
@@ -153,11 +185,10 @@ def main():
         "Gymnasium CartPole unwrapped step": gym_stepper(theirs.unwrapped, actions),
     }
     n = args.vector_envs
+    our_vector = gymnasium.make_vec("lerax_like/CartPole-v1", num_envs=n, vectorization_mode="vector_entry_point")
     vector = {
-        f"lerax_like vector env, N={n}": vector_stepper(
-            gymnasium.make_vec("lerax_like/CartPole-v1", num_envs=n, vectorization_mode="vector_entry_point"),
-            vector_steps,
-        ),
+        f"lerax_like vector env, N={n}": vector_stepper(our_vector, vector_steps),
+        f"JAX floor of a vector step, N={n}": vector_floor_stepper(our_vector, vector_steps),
         f"Gymnasium vector CartPole, N={n}": vector_stepper(
             gymnasium.make_vec("CartPole-v1", num_envs=n, vectorization_mode="vector_entry_point"), vector_steps
         ),
