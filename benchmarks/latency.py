@@ -160,6 +160,28 @@ def vector_floor_stepper(env, num_steps):
     return block
 
 
+def vector_compiled_stepper(env, num_steps):
+    """The layer's jitted vector step alone (no restarts) + `device_get`, without its bookkeeping."""
+    unwrapped = env.unwrapped if hasattr(env, "unwrapped") else env
+    split = unwrapped._split
+    env.reset(seed=0)
+    y, steps, key = unwrapped._y, unwrapped._steps, unwrapped._jax_key
+    reset_mask, time_limit = unwrapped._no_reset, unwrapped._time_limit
+    rng = np.random.default_rng(0)
+    num_envs = env.num_envs
+
+    def block():
+        start = time.perf_counter()
+        with float64():
+            for _ in range(num_steps):
+                actions = rng.integers(0, 2, num_envs)
+                _, _, *outputs, _ = split.vector_step(split.leaves, y, steps, actions, key, reset_mask, y, time_limit)
+                jax.device_get(outputs)
+        return time.perf_counter() - start
+
+    return block
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--quick", action="store_true", help="fewer steps and repeats")
@@ -188,6 +210,7 @@ def main():
     our_vector = gymnasium.make_vec("lerax_like/CartPole-v1", num_envs=n, vectorization_mode="vector_entry_point")
     vector = {
         f"lerax_like vector env, N={n}": vector_stepper(our_vector, vector_steps),
+        f"lerax_like compiled vector step + device_get, N={n}": vector_compiled_stepper(our_vector, vector_steps),
         f"JAX floor of a vector step, N={n}": vector_floor_stepper(our_vector, vector_steps),
         f"Gymnasium vector CartPole, N={n}": vector_stepper(
             gymnasium.make_vec("CartPole-v1", num_envs=n, vectorization_mode="vector_entry_point"), vector_steps
