@@ -17,6 +17,16 @@ from .physics import AbstractDynamics
 from .spaces import AbstractSpace
 
 
+def _purpose_keys(key: Key, count: int) -> tuple[Key, ...]:
+    """`count` independent keys, one per purpose, as `jr.fold_in(key, i)`.
+
+    Unlike `jr.split(key, count)`, which hashes all `count` counters in one op, each
+    `fold_in` is its own small op, so XLA drops the keys a scene never uses (CartPole
+    uses none but the reset's): key work dominates a vmapped env step.
+    """
+    return tuple(jr.fold_in(key, i) for i in range(count))
+
+
 class EnvState(eqx.Module):
     """The state of an env: the continuous state `y` and the env steps taken in this episode.
 
@@ -108,7 +118,7 @@ class AbstractEnv(eqx.Module):
         return state.steps >= self.max_episode_steps
 
     def reset(self, *, key: Key) -> tuple[EnvState, Array, dict[str, Array]]:
-        initial_key, observation_key = jr.split(key)
+        initial_key, observation_key = _purpose_keys(key, 2)
         state = self.initial(key=initial_key)
         return state, self.observation(state, key=observation_key), {}
 
@@ -137,7 +147,7 @@ class AbstractEnv(eqx.Module):
         to avoid the actions that break the solver rather than to exploit them.
         `info["solver_ok"]` tells this end apart from the task's own.
         """
-        transition_key, observation_key, reward_key, terminal_key, reset_key = jr.split(key, 5)
+        transition_key, observation_key, reward_key, terminal_key, reset_key = _purpose_keys(key, 5)
         next_state, info = self.transition(state, action, key=transition_key)
         observation = self.observation(next_state, key=observation_key)
         reward = self.reward(state, action, next_state, key=reward_key)

@@ -1,0 +1,112 @@
+"""Compile time of a 1000-step scanned rollout, per solver, beside gymnax.
+
+Two programs per solver, each a fresh `jax.jit` (new closures, so no cache is hit):
+- `rollout`: `lerax_like.rollout` (transition only) of one env over 1000 actions;
+- `step`: the throughput workload (`_workload.py`) of 1000 `env.step` calls with autoreset
+  and random actions, vmapped over N=1024 envs.
+Reported: trace + lowering and XLA compilation, in wall-clock seconds and in CPU seconds of
+this process (less sensitive to other processes on a shared machine; compilation is
+mostly single-threaded), minimum over fresh repeats.
+
+    python benchmarks/compile_time.py
+    python benchmarks/compile_time.py --repeats 1 --solvers euler rk4
+
+Writes benchmarks/results/compile_time.csv.
+"""
+
+import argparse
+import csv
+import os
+import pathlib
+import sys
+import time
+
+import jax
+import jax.numpy as jnp
+import jax.random as jr
+
+HERE = pathlib.Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent))
+sys.path.insert(0, str(HERE))
+
+import lerax_like  # noqa: E402
+from _workload import batched, scanned  # noqa: E402
+from throughput import gymnax_program, lerax_program  # noqa: E402
+
+
+NUM_STEPS = 1000
+
+
+def measure(make_jitted, args) -> dict[str, float]:
+    """Seconds to trace + lower and to compile a fresh jitted function, wall and CPU."""
+    jitted = make_jitted()
+    wall, cpu = time.perf_counter(), time.process_time()
+    lowered = jitted.lower(*args)
+    wall_lower, cpu_lower = time.perf_counter() - wall, time.process_time() - cpu
+    wall, cpu = time.perf_counter(), time.process_time()
+    lowered.compile()
+    wall_compile, cpu_compile = time.perf_counter() - wall, time.process_time() - cpu
+    return {
+        "lower_wall_s": wall_lower,
+        "compile_wall_s": wall_compile,
+        "total_wall_s": wall_lower + wall_compile,
+        "total_cpu_s": cpu_lower + cpu_compile,
+    }
+
+
+def rollout_program(solver):
+    def make():
+        env = lerax_like.CartPoleContinuous(solver=solver)
+
+        @jax.jit
+        def run(y0, actions, key):
+            state = lerax_like.EnvState(y=y0, steps=jnp.zeros((), dtype=int))
+            return lerax_like.rollout(env, state, actions, key=key)
+
+        return run
+
+    return make, (jnp.zeros(4), jnp.zeros((NUM_STEPS, 1)), jr.key(0))
+
+
+def step_program(make_step):
+    def make():
+        step, initial = make_step()
+        return batched(scanned(step, initial, NUM_STEPS), 1024)
+
+    return make, (jr.key(0),)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--solvers", nargs="+", default=["euler", "rk4", "tsit5"])
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--out", type=pathlib.Path, default=HERE / "results")
+    args = parser.parse_args()
+
+    programs = {}
+    for solver in args.solvers:
+        programs[(f"lerax_like {solver}", "rollout")] = rollout_program(solver)
+        programs[(f"lerax_like {solver}", "step")] = step_program(lambda solver=solver: lerax_program(solver))
+    programs[("gymnax", "step")] = step_program(gymnax_program)
+
+    print(f"{NUM_STEPS}-step scanned programs, min of {args.repeats} fresh compiles, load average {os.getloadavg()}")
+    results = {name: [] for name in programs}
+    for _ in range(args.repeats):
+        for name, (make, inputs) in programs.items():
+            results[name].append(measure(make, inputs))
+    rows = []
+    for (implementation, kind), measurements in results.items():
+        best = {field: min(m[field] for m in measurements) for field in measurements[0]}
+        rows.append({"implementation": implementation, "program": kind, **best})
+        print(f"{implementation:18s} {kind:8s} lower {best['lower_wall_s']:6.2f} s  compile {best['compile_wall_s']:6.2f} s  "
+              f"total {best['total_wall_s']:6.2f} s wall, {best['total_cpu_s']:6.2f} s CPU")
+    args.out.mkdir(parents=True, exist_ok=True)
+    with open(args.out / "compile_time.csv", "w", newline="") as file:
+        writer = csv.DictWriter(file, fieldnames=list(rows[0]))
+        writer.writeheader()
+        for row in rows:
+            writer.writerow({k: (f"{v:.4f}" if isinstance(v, float) else v) for k, v in row.items()})
+
+
+if __name__ == "__main__":
+    main()

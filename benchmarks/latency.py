@@ -1,0 +1,256 @@
+"""Latency of one Gymnasium-layer step against the JAX floor and against Gymnasium, in one run.
+
+Single env, one `step(action)` call at a time, random actions, reset (untimed) when an
+episode ends:
+- `lerax_like/CartPole-v1` through `gymnasium.make` (with Gymnasium's wrappers) and its
+  `unwrapped` env;
+- the layer's compiled step alone (`unwrapped._split.step` + `jax.device_get`), to split
+  the layer's Python bookkeeping from the jitted call;
+- the JAX floor: one bare `jax.jit` function that takes the same arrays as the layer's
+  compiled step (parameter leaves, float64 state, step count, action, key) and returns
+  arrays of the same shapes and dtypes without computing anything, fetched with
+  `jax.device_get` (what any layer must at least do per step);
+- Gymnasium's numpy `CartPole-v1` through `gymnasium.make` and unwrapped.
+Vector envs at N (default 1024): `make_vec("lerax_like/CartPole-v1", vectorization_mode=
+"vector_entry_point")` against Gymnasium's numpy vector CartPole, steps per second, and the
+vector step's JAX floor (a bare jitted call with its inputs and outputs, plus `device_get`).
+
+Each candidate is timed per call; a block's statistic is the median call, and the
+blocks of all candidates are interleaved; the minimum over blocks is reported.
+
+    python benchmarks/latency.py
+    python benchmarks/latency.py --quick
+
+Writes benchmarks/results/latency.csv.
+"""
+
+import argparse
+import csv
+import os
+import pathlib
+import statistics
+import sys
+import time
+
+import gymnasium
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+HERE = pathlib.Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent))
+
+import lerax_like  # noqa: E402,F401  (registers the lerax_like/ ids)
+from lerax_like.gym._compiled import float64  # noqa: E402
+
+
+def gym_stepper(env, actions):
+    """A thunk that times `len(actions)` single steps of `env`; returns their median in seconds."""
+    env.reset(seed=0)
+
+    def block():
+        times = []
+        for action in actions:
+            start = time.perf_counter()
+            _, _, terminated, truncated, _ = env.step(action)
+            times.append(time.perf_counter() - start)
+            if terminated or truncated:
+                env.reset()
+        return statistics.median(times)
+
+    return block
+
+
+def compiled_stepper(env, actions):
+    """The layer's jitted step alone, as `GymnasiumEnv.step` calls it, without its bookkeeping."""
+    unwrapped = env.unwrapped
+    split = unwrapped._split
+    env.reset(seed=0)
+    y = np.array(unwrapped.state)
+    key = unwrapped._jax_key
+
+    def block():
+        nonlocal key
+        times = []
+        with float64():
+            for action in actions:
+                start = time.perf_counter()
+                *outputs, key = split.step(split.leaves, y, np.int64(0), np.int64(action), key)
+                jax.device_get(outputs)
+                times.append(time.perf_counter() - start)
+        return statistics.median(times)
+
+    return block
+
+
+def floor_stepper(env, actions):
+    """The JAX floor: a bare jitted call with the layer's inputs and outputs, computing nothing."""
+    unwrapped = env.unwrapped
+    split = unwrapped._split
+    env.reset(seed=0)
+    y = np.array(unwrapped.state)
+    key = unwrapped._jax_key
+
+    @jax.jit
+    def bare(leaves, y, steps, action, key):
+        del leaves, action
+        info = {"solver_ok": steps >= 0, "solver_steps": steps.astype(jnp.int32)}
+        return y, y.astype(jnp.float32), y[0], steps < 0, info, key
+
+    with float64():
+        jax.block_until_ready(bare(split.leaves, y, np.int64(0), np.int64(0), key))
+
+    def block():
+        nonlocal key
+        times = []
+        with float64():
+            for action in actions:
+                start = time.perf_counter()
+                *outputs, key = bare(split.leaves, y, np.int64(0), np.int64(action), key)
+                jax.device_get(outputs)
+                times.append(time.perf_counter() - start)
+        return statistics.median(times)
+
+    return block
+
+
+def vector_stepper(env, num_steps):
+    """Seconds for `num_steps` vector steps with random actions (next-step autoreset)."""
+    env.reset(seed=0)
+    rng = np.random.default_rng(0)
+    num_envs = env.num_envs
+
+    def block():
+        start = time.perf_counter()
+        for _ in range(num_steps):
+            env.step(rng.integers(0, 2, num_envs))
+        return time.perf_counter() - start
+
+    return block
+
+
+def vector_floor_stepper(env, num_steps):
+    """The JAX floor of a vector step: a bare jitted call with the layer's vector inputs and outputs."""
+    unwrapped = env.unwrapped if hasattr(env, "unwrapped") else env
+    split = unwrapped._split
+    env.reset(seed=0)
+    y, steps, key = unwrapped._y, unwrapped._steps, unwrapped._jax_key
+    reset_mask, time_limit = unwrapped._no_reset, unwrapped._time_limit
+    rng = np.random.default_rng(0)
+    num_envs = env.num_envs
+
+    @jax.jit
+    def bare(leaves, y, steps, action, key, reset_mask, reset_y, max_episode_steps):
+        del leaves, action, reset_y, max_episode_steps
+        info = {"solver_ok": reset_mask, "solver_steps": steps.astype(jnp.int32)}
+        return y, steps, y.astype(jnp.float32), y[:, 0], reset_mask, reset_mask, info, key
+
+    def block():
+        start = time.perf_counter()
+        with float64():
+            for _ in range(num_steps):
+                actions = rng.integers(0, 2, num_envs)
+                _, _, *outputs, _ = bare(split.leaves, y, steps, actions, key, reset_mask, y, time_limit)
+                jax.device_get(outputs)
+        return time.perf_counter() - start
+
+    with float64():
+        jax.block_until_ready(bare(split.leaves, y, steps, np.zeros(num_envs, dtype=np.int64), key, reset_mask, y,
+                                   time_limit))
+    return block
+
+
+def vector_compiled_stepper(env, num_steps):
+    """The layer's jitted vector step alone (no restarts) + `device_get`, without its bookkeeping."""
+    unwrapped = env.unwrapped if hasattr(env, "unwrapped") else env
+    split = unwrapped._split
+    env.reset(seed=0)
+    y, steps, key = unwrapped._y, unwrapped._steps, unwrapped._jax_key
+    reset_mask, time_limit = unwrapped._no_reset, unwrapped._time_limit
+    rng = np.random.default_rng(0)
+    num_envs = env.num_envs
+
+    def block():
+        start = time.perf_counter()
+        with float64():
+            for _ in range(num_steps):
+                actions = rng.integers(0, 2, num_envs)
+                _, _, *outputs, _ = split.vector_step(split.leaves, y, steps, actions, key, reset_mask, y, time_limit)
+                jax.device_get(outputs)
+        return time.perf_counter() - start
+
+    return block
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--quick", action="store_true", help="fewer steps and repeats")
+    parser.add_argument("--steps", type=int, default=None, help="single-env steps per block")
+    parser.add_argument("--repeats", type=int, default=None)
+    parser.add_argument("--vector-envs", type=int, default=1024)
+    parser.add_argument("--vector-steps", type=int, default=None)
+    parser.add_argument("--out", type=pathlib.Path, default=HERE / "results")
+    args = parser.parse_args()
+    num_steps = args.steps or (200 if args.quick else 1000)
+    repeats = args.repeats or (2 if args.quick else 7)
+    vector_steps = args.vector_steps or (20 if args.quick else 200)
+    actions = np.random.default_rng(1).integers(0, 2, num_steps)
+
+    ours = gymnasium.make("lerax_like/CartPole-v1")
+    theirs = gymnasium.make("CartPole-v1")
+    single = {
+        "lerax_like gym.make step": gym_stepper(ours, actions),
+        "lerax_like unwrapped step": gym_stepper(ours.unwrapped, actions),
+        "lerax_like compiled step + device_get": compiled_stepper(ours, actions),
+        "JAX floor: bare jitted call + device_get": floor_stepper(ours, actions),
+        "Gymnasium CartPole gym.make step": gym_stepper(theirs, actions),
+        "Gymnasium CartPole unwrapped step": gym_stepper(theirs.unwrapped, actions),
+    }
+    n = args.vector_envs
+    our_vector = gymnasium.make_vec("lerax_like/CartPole-v1", num_envs=n, vectorization_mode="vector_entry_point")
+    vector = {
+        f"lerax_like vector env, N={n}": vector_stepper(our_vector, vector_steps),
+        f"lerax_like compiled vector step + device_get, N={n}": vector_compiled_stepper(our_vector, vector_steps),
+        f"JAX floor of a vector step, N={n}": vector_floor_stepper(our_vector, vector_steps),
+        f"Gymnasium vector CartPole, N={n}": vector_stepper(
+            gymnasium.make_vec("CartPole-v1", num_envs=n, vectorization_mode="vector_entry_point"), vector_steps
+        ),
+    }
+    for block in vector.values():
+        block()  # compiles and warms up
+
+    print(f"jax {jax.__version__}, gymnasium {gymnasium.__version__}, {os.cpu_count()} CPUs, "
+          f"load average {os.getloadavg()}; {num_steps} steps a block, {repeats} interleaved blocks")
+    results = {name: [] for name in {**single, **vector}}
+    for _ in range(repeats):
+        for name, block in {**single, **vector}.items():
+            results[name].append(block())
+
+    floor = min(results["JAX floor: bare jitted call + device_get"])
+    gymnasium_step = min(results["Gymnasium CartPole gym.make step"])
+    rows = []
+    for name in single:
+        seconds = min(results[name])
+        rows.append({"measurement": name, "seconds_per_step": seconds, "vs_jax_floor": seconds / floor,
+                     "vs_gymnasium_make_step": seconds / gymnasium_step, "steps_per_s": 1 / seconds})
+        print(f"{name:42s} {seconds * 1e6:8.1f} us/step  x{seconds / floor:5.2f} floor  "
+              f"x{seconds / gymnasium_step:6.2f} Gymnasium")
+    theirs_vector = min(results[f"Gymnasium vector CartPole, N={n}"])
+    for name in vector:
+        seconds = min(results[name]) / vector_steps
+        rows.append({"measurement": name, "seconds_per_step": seconds, "vs_jax_floor": float("nan"),
+                     "vs_gymnasium_make_step": float("nan"), "steps_per_s": n / seconds})
+        print(f"{name:42s} {seconds * 1e6:8.1f} us/vector step  {n / seconds / 1e6:7.2f} M steps/s  "
+              f"x{theirs_vector / min(results[name]):5.2f} Gymnasium vector speed")
+    print(f"load average at the end {os.getloadavg()}")
+    args.out.mkdir(parents=True, exist_ok=True)
+    suffix = "_quick" if args.quick else ""
+    with open(args.out / f"latency{suffix}.csv", "w", newline="") as file:
+        writer = csv.DictWriter(file, fieldnames=list(rows[0]))
+        writer.writeheader()
+        for row in rows:
+            writer.writerow({k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in row.items()})
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,146 @@
+"""Where the time of a vmapped `CartPole.step` goes: per-part timings in one run.
+
+Each variant runs the shared workload (`_workload.py`: N envs, random actions, T steps in
+one scan) and adds one part of `AbstractEnv.step` at a time, so the differences between
+rows are the costs of the parts. gymnax's CartPole runs beside them as the reference.
+
+    python benchmarks/profile_step.py            # N=1024, T=500, 7 interleaved repeats
+    python benchmarks/profile_step.py --envs 64 --repeats 3
+"""
+
+import argparse
+import csv
+import pathlib
+import sys
+
+import jax
+import jax.numpy as jnp
+import jax.random as jr
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+
+import lerax_like  # noqa: E402
+from lerax_like.env import EnvState  # noqa: E402
+from _workload import batched, compile_seconds, interleaved, scanned, summary  # noqa: E402
+
+
+def hand_euler(env, y, u):
+    # The Euler line that gymnax and Gymnasium write by hand.
+    return y + env.dt * env.dynamics.vector_field(0.0, y, u)
+
+
+def variants(env):
+    """name -> (step, initial), from the bare physics up to the full `env.step`."""
+
+    def initial(key):
+        return env.reset(key=key)[0]
+
+    def physics_only(state, action, key):
+        del key
+        y = hand_euler(env, state.y, env.physical_input(action))
+        return EnvState(y=y, steps=state.steps + 1), jnp.ones(())
+
+    def diffeqsolve_only(state, action, key):
+        del key
+        y, _ = env.integrator.integrate(env.dynamics.vector_field, state.y, env.physical_input(action), env.dt)
+        return EnvState(y=y, steps=state.steps + 1), jnp.ones(())
+
+    def hand_step_no_reset(state, action, key):
+        # Termination and truncation but the episode restarts from a constant state:
+        # `step` without the reset sampling and without key splitting.
+        del key
+        y = hand_euler(env, state.y, env.physical_input(action))
+        next_state = EnvState(y=y, steps=state.steps + 1)
+        done = env.terminal(next_state, key=None) | env.truncate(next_state)
+        fresh = EnvState(y=jnp.zeros_like(y), steps=jnp.zeros_like(state.steps))
+        new_state = jax.tree.map(lambda a, b: jnp.where(done, a, b), fresh, next_state)
+        return new_state, jnp.ones(())
+
+    def hand_step_with_reset(state, action, key):
+        # As above, with gymnax's key work: one split in two and a reset sampled every step.
+        _, reset_key = jr.split(key)
+        y = hand_euler(env, state.y, env.physical_input(action))
+        next_state = EnvState(y=y, steps=state.steps + 1)
+        done = env.terminal(next_state, key=None) | env.truncate(next_state)
+        fresh = env.initial(key=reset_key)
+        new_state = jax.tree.map(lambda a, b: jnp.where(done, a, b), fresh, next_state)
+        return new_state, jnp.ones(())
+
+    def hand_step_lerax_keys(state, action, key):
+        # As above, with the key work `AbstractEnv.step` did before `_purpose_keys`: split
+        # in five, then `reset` split in two again.
+        _, _, _, _, reset_key = jr.split(key, 5)
+        y = hand_euler(env, state.y, env.physical_input(action))
+        next_state = EnvState(y=y, steps=state.steps + 1)
+        done = env.terminal(next_state, key=None) | env.truncate(next_state)
+        initial_key, _ = jr.split(reset_key)
+        fresh = env.initial(key=initial_key)
+        new_state = jax.tree.map(lambda a, b: jnp.where(done, a, b), fresh, next_state)
+        return new_state, jnp.ones(())
+
+    def full_step(state, action, key):
+        state, _, reward, _, _, _ = env.step(state, action, key=key)
+        return state, reward
+
+    return {
+        "physics only (hand Euler)": (physics_only, initial),
+        "physics only (diffeqsolve Euler)": (diffeqsolve_only, initial),
+        "hand step, constant reset": (hand_step_no_reset, initial),
+        "hand step, gymnax key work": (hand_step_with_reset, initial),
+        "hand step, split(5)+split(2) keys": (hand_step_lerax_keys, initial),
+        "env.step (Euler, fold_in keys)": (full_step, initial),
+    }
+
+
+def gymnax_variant():
+    import gymnax
+
+    env, params = gymnax.make("CartPole-v1")
+
+    def initial(key):
+        return env.reset(key, params)[1]
+
+    def step(state, action, key):
+        _, state, reward, _, _, _ = env.step(key, state, action, params)
+        return state, reward
+
+    return {"gymnax CartPole-v1": (step, initial)}
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--envs", type=int, default=1024)
+    parser.add_argument("--steps", type=int, default=500)
+    parser.add_argument("--repeats", type=int, default=7)
+    parser.add_argument("--csv", type=pathlib.Path, default=None)
+    args = parser.parse_args()
+
+    env = lerax_like.CartPole(solver="euler")
+    runs = {}
+    for name, (step, initial) in {**variants(env), **gymnax_variant()}.items():
+        run = batched(scanned(step, initial, args.steps), args.envs)
+        key = jr.key(0)
+        _, compiled = compile_seconds(run, key)
+        jax.block_until_ready(compiled(key))
+        runs[name] = (lambda compiled=compiled, key=key: jax.block_until_ready(compiled(key)))
+
+    times = interleaved(runs, args.repeats)
+    reference = summary(times["gymnax CartPole-v1"])[0]
+    rows = []
+    print(f"N={args.envs}, T={args.steps}, {args.repeats} interleaved repeats; time relative to gymnax (min)")
+    for name, seconds in times.items():
+        best, median = summary(seconds)
+        steps_per_second = args.envs * args.steps / best
+        rows.append([name, f"{best:.5f}", f"{median:.5f}", f"{steps_per_second:.4g}", f"{best / reference:.3f}"])
+        print(f"{name:36s} min {best * 1e3:8.2f} ms  median {median * 1e3:8.2f} ms  "
+              f"{steps_per_second / 1e6:7.2f} M steps/s  x{best / reference:5.2f} gymnax time")
+    if args.csv is not None:
+        with open(args.csv, "w", newline="") as file:
+            writer = csv.writer(file)
+            writer.writerow(["variant", "min_s", "median_s", "steps_per_s", "time_vs_gymnax"])
+            writer.writerows(rows)
+
+
+if __name__ == "__main__":
+    main()
