@@ -16,6 +16,7 @@ integrator (`env.integrator.integrate` over `[0, dt]` per env step, the input he
 """
 
 import dataclasses
+import inspect
 import math
 import time
 from collections.abc import Sequence
@@ -28,6 +29,7 @@ import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
 
+from ..env import AbstractEnv
 from ..integrate import Integrator, make_integrator
 from ..spaces import Box, Discrete
 from .reference import reference_trajectories
@@ -188,12 +190,32 @@ class StudyConfig:
         return "Radau" if self.scene in STIFF_SCENES else "DOP853"
 
 
-def _trajectory(env, y0, inputs):
-    # Exactly the integration `env.transition` performs, with the physical input given
-    # directly, so that a zero force can be studied on a scene whose actions cannot
-    # express one (CartPole pushes left or right).
+_INTEGRATE_KEYWORDS = frozenset(inspect.signature(Integrator.integrate).parameters)
+
+
+def _transition_options(env: AbstractEnv) -> dict[str, Any]:
+    """The keywords `env.transition` passes to `integrate` besides the vector field.
+
+    Only those this version of `Integrator.integrate` takes; a projection only when the
+    scene overrides the identity, so that scenes sharing a physics module share
+    compilations.
+    """
+    options: dict[str, Any] = {}
+    if "velocity_indices" in _INTEGRATE_KEYWORDS:
+        options["velocity_indices"] = getattr(env.dynamics, "velocity_indices", None)
+    project = getattr(type(env), "project", None)
+    if "projection" in _INTEGRATE_KEYWORDS and project is not getattr(AbstractEnv, "project", None):
+        options["projection"] = env.project
+    return options
+
+
+def _trajectory(integrator: Integrator, dynamics, dt, options, y0, inputs):
+    # The integration `env.transition` performs with the env's `integrator`, `dynamics`
+    # and `dt`, with the physical input given directly, so that a zero force can be
+    # studied on a scene whose actions cannot express one (CartPole pushes left or
+    # right).
     def body(y, u):
-        y1, info = env.integrator.integrate(env.dynamics.vector_field, y, u, env.dt)
+        y1, info = integrator.integrate(dynamics.vector_field, y, u, dt, **options)
         return y1, (y1, info["solver_ok"], info["solver_steps"])
 
     _, (ys, ok, steps) = jax.lax.scan(body, y0, inputs)
@@ -201,8 +223,10 @@ def _trajectory(env, y0, inputs):
 
 
 @eqx.filter_jit
-def _batched_trajectories(env, y0s, inputs):
-    return jax.vmap(_trajectory, in_axes=(None, 0, None))(env, y0s, inputs)
+def _batched_trajectories(integrator: Integrator, dynamics, dt, options, y0s, inputs):
+    return jax.vmap(_trajectory, in_axes=(None, None, None, None, 0, None))(
+        integrator, dynamics, dt, options, y0s, inputs
+    )
 
 
 @eqx.filter_jit
@@ -373,16 +397,18 @@ def _run_study(config: StudyConfig, *, progress: bool) -> StudyResult:
     bar = _progress_bar(len(settings), progress, f"study {config.scene}")
     rows: list[dict[str, Any]] = []
     for sweep, setting, integrator in settings:
+        # The env as a user would set it up with this solver.
         study_env = eqx.tree_at(lambda e: e.integrator, env, integrator)
+        parts = (study_env.integrator, study_env.dynamics, study_env.dt, _transition_options(study_env))
         per_step = evaluations_per_step(integrator.solver)
         for schedule, entry in schedules.items():
             inputs = jnp.asarray(entry["inputs"])
-            outputs = _batched_trajectories(study_env, y0s, inputs)  # compiles
+            outputs = _batched_trajectories(*parts, y0s, inputs)  # compiles
             jax.block_until_ready(outputs)
             times = []
             for _ in range(config.repeats):
                 start = time.perf_counter()
-                outputs = jax.block_until_ready(_batched_trajectories(study_env, y0s, inputs))
+                outputs = jax.block_until_ready(_batched_trajectories(*parts, y0s, inputs))
                 times.append(time.perf_counter() - start)
             ys, ok, steps = (np.asarray(x) for x in outputs)
             solver_ok = bool(np.all(ok))
