@@ -27,13 +27,16 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scenes", nargs="*", default=list(SCENES))
     parser.add_argument("--out", default=os.path.join(os.path.dirname(os.path.abspath(__file__)), "results"))
+    parser.add_argument("--repeats", type=int, default=15, help="timed runs per setting; the minimum is kept")
     parser.add_argument("--no-progress", action="store_true")
     arguments = parser.parse_args(argv)
     os.makedirs(arguments.out, exist_ok=True)
     for scene in arguments.scenes:
         date = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
         machine = environment_record()
-        config = StudyConfig.default(scene, check_method="DOP853" if scene in STIFF_SCENES else "Radau")
+        config = StudyConfig.default(
+            scene, repeats=arguments.repeats, check_method="DOP853" if scene in STIFF_SCENES else "Radau"
+        )
         started = datetime.datetime.now()
         result = run_study(config, progress=not arguments.no_progress)
         seconds = (datetime.datetime.now() - started).total_seconds()
