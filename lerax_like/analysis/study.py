@@ -255,21 +255,23 @@ def _attempted_steps(integrator: Integrator, vector_field, y0s, inputs, dt):
     return jax.vmap(trajectory)(y0s)
 
 
-def evaluations_per_step(solver: diffrax.AbstractSolver) -> tuple[int, int] | None:
-    """`(per attempted step, once per solve)` vector-field evaluations of an explicit solver.
+def evaluations_per_step(solver: diffrax.AbstractSolver) -> tuple[int, int, int] | None:
+    """`(per accepted step, per rejected step, once per solve)` vector-field evaluations.
 
-    Read from the Butcher tableau: `s` stages per step, or `s - 1` plus one at the start
-    of each solve for a first-same-as-last method (Tsit5, Dopri5), whose first stage of
-    a step is the last of the one before (also after a rejected step). `None` for
-    implicit solvers, whose count depends on the root finder.
+    Read from the Butcher tableau of an explicit solver: `s` stages per step, or, for a
+    first-same-as-last method (Tsit5, Dopri5), `s - 1` per accepted step (its first
+    stage is the last of the step before) plus one at the start of each solve. A
+    rejected step costs all `s` (diffrax 0.7 does not reuse the first stage after a
+    rejection: counted in tests/test_study.py). `None` for implicit solvers, whose
+    count depends on the root finder.
     """
     if isinstance(solver, diffrax.Euler):
-        return 1, 0
+        return 1, 1, 0
     tableau = getattr(solver, "tableau", None)
     if not isinstance(solver, diffrax.AbstractERK) or not isinstance(tableau, diffrax.ButcherTableau):
         return None
     stages = len(tableau.c) + 1
-    return (stages - 1, 1) if tableau.fsal else (stages, 0)
+    return (stages - 1, stages, 1) if tableau.fsal else (stages, stages, 0)
 
 
 def _controller_name(integrator: Integrator) -> str:
@@ -413,6 +415,7 @@ def _run_study(config: StudyConfig, *, progress: bool) -> StudyResult:
             ys, ok, steps = (np.asarray(x) for x in outputs)
             solver_ok = bool(np.all(ok))
             deviation = np.max(np.abs(ys - entry["reference"]), axis=-1)  # (B, T)
+            accepted_per_trajectory = float(np.mean(np.sum(steps, axis=1)))
             if setting["substeps"] is None:
                 attempted, accepted = (
                     np.asarray(x) for x in _attempted_steps(integrator, env.dynamics.vector_field, y0s, inputs, env.dt)
@@ -421,11 +424,16 @@ def _run_study(config: StudyConfig, *, progress: bool) -> StudyResult:
                     raise RuntimeError("the step count of the env's integrator and of its repeat disagree")
                 attempted_per_trajectory = float(np.mean(np.sum(attempted, axis=1)))
             else:
-                attempted_per_trajectory = float(np.mean(np.sum(steps, axis=1)))
+                attempted_per_trajectory = accepted_per_trajectory
             if per_step is None:
                 evaluations = math.nan
             else:
-                evaluations = attempted_per_trajectory * per_step[0] + config.horizon * per_step[1]
+                per_accepted, per_rejected, per_solve = per_step
+                evaluations = (
+                    accepted_per_trajectory * per_accepted
+                    + (attempted_per_trajectory - accepted_per_trajectory) * per_rejected
+                    + config.horizon * per_solve
+                )
             row = {
                 "scene": config.scene,
                 "schedule": schedule,
@@ -440,7 +448,7 @@ def _run_study(config: StudyConfig, *, progress: bool) -> StudyResult:
                 "error": float(np.max(deviation[:, -1])) if solver_ok else math.nan,
                 "max_error": float(np.max(deviation)) if solver_ok else math.nan,
                 "seconds": min(times),
-                "steps": float(np.mean(np.sum(steps, axis=1))),
+                "steps": accepted_per_trajectory,
                 "attempted_steps": attempted_per_trajectory,
                 "vector_field_evaluations": evaluations,
                 "energy_drift": math.nan,
