@@ -6,6 +6,10 @@ initial states from `initial`, a recorded action schedule from `action_space`, t
 physical input from `physical_input`, energy and momentum from `dynamics` when it has
 them. Scenes whose dynamics are stiff are listed in `STIFF_SCENES`, so that the SciPy
 reference uses Radau instead of DOP853.
+
+The SciPy reference integrates the vector field alone: a scene that clips or wraps its
+state after each step (a `project` override) is measured against the unclipped motion,
+which is the right reference only while the projection stays inactive.
 """
 
 from collections.abc import Callable
