@@ -1,0 +1,29 @@
+"""Solver studies: work-precision, convergence orders and invariant drift, against SciPy.
+
+Needs the `study` extra (SciPy for the reference; matplotlib for plots; tqdm for the
+progress bar): `pip install 'lerax_like[study]'`.
+"""
+
+from .convergence import convergence_orders as convergence_orders, fit_order as fit_order
+from .reference import reference_trajectories as reference_trajectories
+from .report import (
+    CSV_COLUMNS as CSV_COLUMNS,
+    cheapest_at as cheapest_at,
+    format_table as format_table,
+    plot_work_precision as plot_work_precision,
+    read_csv as read_csv,
+    write_csv as write_csv,
+    write_json as write_json,
+    write_study as write_study,
+)
+from .rollout_check import preset_rollouts as preset_rollouts
+from .scenes import SCENES as SCENES, STIFF_SCENES as STIFF_SCENES, make_scene as make_scene
+from .study import (
+    SCHEDULES as SCHEDULES,
+    SolverSweep as SolverSweep,
+    StudyConfig as StudyConfig,
+    StudyResult as StudyResult,
+    default_sweeps as default_sweeps,
+    evaluations_per_step as evaluations_per_step,
+    run_study as run_study,
+)

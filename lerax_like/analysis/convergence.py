@@ -1,0 +1,63 @@
+"""Convergence orders fitted from a study's fixed-step rows."""
+
+import math
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+import numpy as np
+
+
+# Accumulated float64 round-off over thousands of steps sits around here; errors below
+# it say nothing about the method's order.
+ROUNDOFF_FLOOR = 1e-12
+
+
+def fit_order(
+    step_sizes: Sequence[float], errors: Sequence[float], *, floor: float = 0.0, ceiling: float = 1e-2
+) -> tuple[float, int]:
+    """Slope of `log(error)` on `log(step_size)`, fitted to `floor < error < ceiling`.
+
+    Returns `(slope, points used)`; the slope is NaN with fewer than two points. Errors
+    above `ceiling` are outside the asymptotic regime; errors below `floor` are
+    dominated by the reference's error or by round-off.
+    """
+    h = np.asarray(step_sizes, dtype=np.float64)
+    e = np.asarray(errors, dtype=np.float64)
+    keep = np.isfinite(e) & (e > floor) & (e < ceiling)
+    if np.count_nonzero(keep) < 2:
+        return math.nan, int(np.count_nonzero(keep))
+    slope = np.polyfit(np.log(h[keep]), np.log(e[keep]), 1)[0]
+    return float(slope), int(np.count_nonzero(keep))
+
+
+def convergence_orders(rows: Iterable[dict[str, Any]], *, ceiling: float = 1e-2) -> list[dict[str, Any]]:
+    """Per schedule and fixed-step solver: fitted orders of the error and of the invariant drifts.
+
+    The error is fitted between `max(10 * reference floor, ROUNDOFF_FLOOR)` and
+    `ceiling`; energy and momentum drifts (zero input only) between `ROUNDOFF_FLOOR` and
+    `ceiling`.
+    """
+    groups: dict[tuple[str, str, str], list[dict[str, Any]]] = {}
+    for row in rows:
+        if row["controller"] != "ConstantStepSize":
+            continue
+        groups.setdefault((row["scene"], row["schedule"], row["solver"]), []).append(row)
+    orders = []
+    for (scene, schedule, solver), group in groups.items():
+        group = sorted(group, key=lambda row: row["dt"])
+        step_sizes = [row["dt"] for row in group]
+        floor = max(10 * max(row["reference_floor"] for row in group), ROUNDOFF_FLOOR)
+        entry = {"scene": scene, "schedule": schedule, "solver": solver}
+        entry["order"], entry["points"] = fit_order(
+            step_sizes, [row["error"] for row in group], floor=floor, ceiling=ceiling
+        )
+        entry["max_error_order"], _ = fit_order(
+            step_sizes, [row["max_error"] for row in group], floor=floor, ceiling=ceiling
+        )
+        for name in ("energy_drift", "momentum_drift"):
+            values = [row.get(name, math.nan) for row in group]
+            if all(math.isnan(v) for v in values):
+                continue
+            entry[f"{name}_order"], _ = fit_order(step_sizes, values, floor=ROUNDOFF_FLOOR, ceiling=ceiling)
+        orders.append(entry)
+    return orders

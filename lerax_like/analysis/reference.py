@@ -1,0 +1,86 @@
+"""Reference trajectories computed independently of diffrax, with SciPy's `solve_ivp`.
+
+The env holds each input constant over one env step and integrates `[0, dt]` afresh at
+every step (time restarts at 0), so the reference does exactly that: one `solve_ivp`
+call per env step, restarted at the step boundaries where the input jumps. Integrating
+across a jump would cost the reference its order at every boundary.
+
+The vector field is the dynamics' own `vector_field`, compiled with `jax.jit` and called
+from NumPy in float64. A batch of initial states is integrated as one stacked system, so
+that each SciPy step costs one compiled call for the whole batch: the Python overhead per
+call, not the arithmetic, is what a tight-tolerance SciPy solve pays for.
+"""
+
+import numpy as np
+
+
+def _solve_ivp():
+    try:
+        from scipy.integrate import solve_ivp
+    except ImportError as error:  # pragma: no cover - depends on the environment
+        raise ImportError(
+            "the reference solutions need SciPy: pip install 'lerax_like[study]'"
+        ) from error
+    return solve_ivp
+
+
+IMPLICIT_METHODS = ("Radau", "BDF", "LSODA")
+
+
+def reference_trajectories(
+    dynamics,
+    y0s: np.ndarray,
+    inputs: np.ndarray,
+    dt: float,
+    *,
+    method: str = "DOP853",
+    rtol: float = 1e-13,
+    atol: float = 1e-13,
+) -> np.ndarray:
+    """States after each env step for each initial state, shape `(B, T, n)`.
+
+    - `dynamics`: the physics module; its `vector_field(t, y, u)` is integrated.
+    - `y0s`: initial states, shape `(B, n)`.
+    - `inputs`: physical inputs, shape `(T, m)`; `inputs[k]` is held over env step `k`,
+      the same for every initial state.
+    - `method`, `rtol`, `atol`: passed to `scipy.integrate.solve_ivp`. The implicit
+      methods get the exact Jacobian (`jax.jacfwd` of the vector field).
+
+    Everything is float64, whatever the dtype of the study.
+    """
+    import jax
+    import jax.numpy as jnp
+
+    solve_ivp = _solve_ivp()
+    y0s = np.asarray(y0s, dtype=np.float64)
+    batch, size = y0s.shape
+    inputs = np.asarray(inputs, dtype=np.float64)
+
+    with jax.enable_x64(True):
+        # The reference is float64 whatever the study's dtype.
+        dynamics = jax.tree.map(lambda leaf: jnp.asarray(leaf, dtype=jnp.float64), dynamics)
+
+        def stacked(t, flat_y, u):
+            ys = jnp.reshape(flat_y, (batch, size))
+            return jnp.reshape(jax.vmap(lambda y: dynamics.vector_field(t, y, u))(ys), (-1,))
+
+        vector_field = jax.jit(stacked)
+        jacobian = jax.jit(jax.jacfwd(stacked, argnums=1))
+
+        def f(t, y, u):
+            return np.asarray(vector_field(np.float64(t), y, u))
+
+        def jac(t, y, u):
+            return np.asarray(jacobian(np.float64(t), y, u))
+
+        options = {"jac": jac} if method in IMPLICIT_METHODS else {}
+        y = np.reshape(y0s, (-1,))
+        states = np.empty((len(inputs), batch * size), dtype=np.float64)
+        for k, u in enumerate(inputs):
+            solution = solve_ivp(f, (0.0, float(dt)), y, method=method, rtol=rtol, atol=atol, args=(u,), **options)
+            if not solution.success:
+                raise RuntimeError(f"reference solve ({method}) failed at env step {k}: {solution.message}")
+            y = solution.y[:, -1]
+            states[k] = y
+    return np.transpose(np.reshape(states, (len(inputs), batch, size)), (1, 0, 2))
+

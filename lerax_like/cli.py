@@ -1,0 +1,77 @@
+"""The `lerax-like` command: argument parsing only; the work is in `lerax_like.analysis`.
+
+    lerax-like study CartPole [--quick] [--out DIR]
+    lerax-like rollout CartPole [--steps N] [--seed S]
+"""
+
+import argparse
+import sys
+import time
+
+
+def _study(arguments) -> int:
+    from .analysis import StudyConfig, run_study, write_study
+    from .analysis.report import cheapest_at, format_orders, format_table
+
+    overrides = {}
+    if arguments.seed is not None:
+        overrides["seed"] = arguments.seed
+    config = StudyConfig.default(arguments.scene, quick=arguments.quick, **overrides)
+    start = time.perf_counter()
+    result = run_study(config, progress=not arguments.no_progress)
+    elapsed = time.perf_counter() - start
+    paths = write_study(result, arguments.out, plot=not arguments.no_plot, study_seconds=elapsed)
+    print(format_table(result.rows))
+    print()
+    print("Convergence orders (fixed steps; errors between the reference floor and "
+          f"{config.fit_ceiling:g}):")
+    print(format_orders(result.convergence_orders()))
+    print()
+    for target in (1e-3, 1e-6, 1e-9):
+        best = cheapest_at(result.rows, target)
+        verdict = "none reached it" if best is None else f"{best['label']} at {best['setting']} ({best['seconds']:.2e} s)"
+        print(f"cheapest at error <= {target:g} ({config.schedules[0]} actions): {verdict}")
+    print()
+    print(f"study took {elapsed:.1f} s; wrote " + ", ".join(paths.values()))
+    return 0
+
+
+def _rollout(arguments) -> int:
+    from .analysis.rollout_check import format_rollouts, preset_rollouts
+
+    rows = preset_rollouts(arguments.scene, steps=arguments.steps, seed=arguments.seed)
+    print(f"{arguments.scene}: one episode of {arguments.steps} seeded random actions, "
+          f"final-state error against {rows[0]['reference']}")
+    print(format_rollouts(rows))
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    from .analysis.scenes import SCENES
+
+    parser = argparse.ArgumentParser(
+        prog="lerax-like", description="Solver-accuracy studies on continuous-time control envs."
+    )
+    commands = parser.add_subparsers(dest="command", required=True)
+
+    study = commands.add_parser("study", help="work-precision study of the solvers on a scene")
+    study.add_argument("scene", choices=sorted(SCENES))
+    study.add_argument("--quick", action="store_true", help="a small study, under a minute on 2 cores")
+    study.add_argument("--out", default="lerax_like_study", help="folder for CSV, PNG and JSON (default: %(default)s)")
+    study.add_argument("--seed", type=int, default=None, help="seed of initial states and actions (default 0)")
+    study.add_argument("--no-progress", action="store_true", help="no progress bar")
+    study.add_argument("--no-plot", action="store_true", help="skip the PNG (no matplotlib needed)")
+    study.set_defaults(run=_study)
+
+    rollout = commands.add_parser("rollout", help="one episode with each solver preset, error and wall time")
+    rollout.add_argument("scene", choices=sorted(SCENES))
+    rollout.add_argument("--steps", type=int, default=200)
+    rollout.add_argument("--seed", type=int, default=0)
+    rollout.set_defaults(run=_rollout)
+
+    arguments = parser.parse_args(argv)
+    return arguments.run(arguments)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
