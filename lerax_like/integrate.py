@@ -211,7 +211,8 @@ class Integrator(eqx.Module):
         velocity and position updates). `velocity_indices` names the velocity components
         of a second-order state, which `SemiImplicitEuler` needs.
 
-        Returns the state at `dt` and `{"solver_ok", "solver_steps"}`. `solver_ok` is
+        Returns the state at `dt` and `{"solver_ok", "solver_steps",
+        "solver_rejected_steps"}` (accepted and rejected steps). `solver_ok` is
         False when the solver failed (step budget exhausted, step size collapsed, root
         finder diverged) or the state is not finite; the state is then not to be used.
         """
@@ -247,7 +248,8 @@ class Integrator(eqx.Module):
             y1 = projection(y1)
         ok: BoolScalar = (solution.result == diffrax.RESULTS.successful) & finite & jnp.all(jnp.isfinite(y1))
         steps: IntScalar = solution.stats["num_accepted_steps"]
-        return y1, {"solver_ok": ok, "solver_steps": steps}
+        rejected: IntScalar = solution.stats["num_steps"] - steps
+        return y1, {"solver_ok": ok, "solver_steps": steps, "solver_rejected_steps": rejected}
 
 
 def make_integrator(

@@ -15,16 +15,33 @@ which is the right reference only while the projection stays inactive.
 from collections.abc import Callable
 
 from ..env import AbstractEnv
-from ..scenes import CartPole, CartPoleContinuous
+from ..scenes import (
+    Acrobot,
+    CartPole,
+    CartPoleContinuous,
+    DoubleCartPole,
+    MountainCar,
+    MountainCarContinuous,
+    NLinkPendulum,
+    Pendulum,
+    VanDerPol,
+)
 
 
 SCENES: dict[str, Callable[..., AbstractEnv]] = {
     "CartPole": CartPole,
     "CartPoleContinuous": CartPoleContinuous,
+    "Pendulum": Pendulum,
+    "Acrobot": Acrobot,
+    "MountainCar": MountainCar,
+    "MountainCarContinuous": MountainCarContinuous,
+    "VanDerPol": VanDerPol,
+    "DoubleCartPole": DoubleCartPole,
+    "NLinkPendulum": NLinkPendulum,
 }
 """Scene name -> constructor (keyword arguments only), as `lerax-like study NAME` spells it."""
 
-STIFF_SCENES: frozenset[str] = frozenset()
+STIFF_SCENES: frozenset[str] = frozenset({"VanDerPol"})
 """Scenes whose reference is computed with an implicit method (SciPy's Radau)."""
 
 

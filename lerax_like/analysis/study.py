@@ -216,10 +216,10 @@ def _trajectory(integrator: Integrator, dynamics, dt, options, y0, inputs):
     # right).
     def body(y, u):
         y1, info = integrator.integrate(dynamics.vector_field, y, u, dt, **options)
-        return y1, (y1, info["solver_ok"], info["solver_steps"])
+        return y1, (y1, info["solver_ok"], info["solver_steps"], info["solver_rejected_steps"])
 
-    _, (ys, ok, steps) = jax.lax.scan(body, y0, inputs)
-    return ys, ok, steps
+    _, (ys, ok, steps, rejected) = jax.lax.scan(body, y0, inputs)
+    return ys, ok, steps, rejected
 
 
 @eqx.filter_jit
@@ -227,32 +227,6 @@ def _batched_trajectories(integrator: Integrator, dynamics, dt, options, y0s, in
     return jax.vmap(_trajectory, in_axes=(None, None, None, None, 0, None))(
         integrator, dynamics, dt, options, y0s, inputs
     )
-
-
-@eqx.filter_jit
-def _attempted_steps(integrator: Integrator, vector_field, y0s, inputs, dt):
-    # `Integrator.integrate` reports accepted steps only; the cost of an adaptive
-    # solve includes the rejected ones. This repeats its solve (same solver,
-    # controller, interval and first step) to read diffrax's count of all steps.
-    def one_step(y, u):
-        solution = diffrax.diffeqsolve(
-            diffrax.ODETerm(vector_field),
-            integrator.solver,
-            t0=jnp.zeros((), dtype=y.dtype),
-            t1=dt,
-            dt0=dt / integrator.substeps,
-            y0=y,
-            args=u,
-            stepsize_controller=integrator.stepsize_controller,
-            max_steps=integrator.max_steps,
-            throw=False,
-        )
-        return solution.ys[-1], (solution.stats["num_steps"], solution.stats["num_accepted_steps"])
-
-    def trajectory(y0):
-        return jax.lax.scan(one_step, y0, inputs)[1]
-
-    return jax.vmap(trajectory)(y0s)
 
 
 def evaluations_per_step(solver: diffrax.AbstractSolver) -> tuple[int, int, int] | None:
@@ -412,19 +386,11 @@ def _run_study(config: StudyConfig, *, progress: bool) -> StudyResult:
                 start = time.perf_counter()
                 outputs = jax.block_until_ready(_batched_trajectories(*parts, y0s, inputs))
                 times.append(time.perf_counter() - start)
-            ys, ok, steps = (np.asarray(x) for x in outputs)
+            ys, ok, steps, rejected = (np.asarray(x) for x in outputs)
             solver_ok = bool(np.all(ok))
             deviation = np.max(np.abs(ys - entry["reference"]), axis=-1)  # (B, T)
             accepted_per_trajectory = float(np.mean(np.sum(steps, axis=1)))
-            if setting["substeps"] is None:
-                attempted, accepted = (
-                    np.asarray(x) for x in _attempted_steps(integrator, env.dynamics.vector_field, y0s, inputs, env.dt)
-                )
-                if not np.array_equal(accepted, steps):
-                    raise RuntimeError("the step count of the env's integrator and of its repeat disagree")
-                attempted_per_trajectory = float(np.mean(np.sum(attempted, axis=1)))
-            else:
-                attempted_per_trajectory = accepted_per_trajectory
+            attempted_per_trajectory = accepted_per_trajectory + float(np.mean(np.sum(rejected, axis=1)))
             if per_step is None:
                 evaluations = math.nan
             else:
