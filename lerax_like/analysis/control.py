@@ -87,10 +87,10 @@ def train_policy(
     with per-env pole masses. Adam with the gradient norm clipped at 1: backpropagating
     through an unstable system makes occasional huge gradients.
 
-    `state_cost(y)` is subtracted from every step's reward during training (see
-    `policy_return`): CartPole's smooth reward is indifferent to where the cart is, so a
-    policy trained on it alone lets the cart drift at the velocity its first corrections
-    gave it, out of the 2.4 m track within the 10 s of an episode.
+    `state_cost(y)`, if given, is subtracted from every step's reward during training
+    (see `policy_return`). CartPole's smooth reward is indifferent to where the cart is:
+    a policy that keeps the pole up but is trained too briefly lets the cart drift out of
+    the 2.4 m track within the 10 s of an episode.
 
     Returns the trained policy and the mean return per iteration.
     """
