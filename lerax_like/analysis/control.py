@@ -114,8 +114,12 @@ def train_policy(
     @eqx.filter_jit
     def update(params, opt_state, key):
         value, grads = jax.value_and_grad(lambda p: -mean_return(p, key))(params)
-        updates, opt_state = optimiser.update(grads, opt_state, params)
-        return optax.apply_updates(params, updates), opt_state, -value
+        # optax's bias correction mixes a float decay with an int32 count, which strict
+        # dtype promotion (as in our tests) refuses; the env's own code stays strict.
+        with jax.numpy_dtype_promotion("standard"):
+            updates, opt_state = optimiser.update(grads, opt_state, params)
+            params = optax.apply_updates(params, updates)
+        return params, opt_state, -value
 
     history = []
     for iteration_key in jr.split(key, iterations):
@@ -138,7 +142,7 @@ def episode_lengths(env: AbstractEnv, policy: Callable, *, key: Key, num_starts:
         def body(carry, key):
             state, observation, alive, length = carry
             state, observation, _, terminated, _, _ = env.step(state, policy(observation), key=key)
-            length = length + alive
+            length = length + alive.astype(length.dtype)
             alive = alive & ~terminated
             return (state, observation, alive, length), None
 
@@ -147,3 +151,51 @@ def episode_lengths(env: AbstractEnv, policy: Callable, *, key: Key, num_starts:
         return length
 
     return eqx.filter_jit(jax.vmap(one))(jr.split(key, num_starts))
+
+
+def optimise_open_loop(
+    env: AbstractEnv,
+    y0: Float[Array, " n"],
+    objective: Callable[[Float[Array, "T n"]], Array],
+    *,
+    horizon: int,
+    action_size: int,
+    iterations: int,
+    key: Key,
+    learning_rate: float = 0.05,
+) -> tuple[Float[Array, "T m"], Array]:
+    """Trajectory optimisation: an action sequence minimising `objective(ys)` by Adam.
+
+    Actions are `tanh(z)` (inside the action box `[-1, 1]`, so no clip kills the
+    gradient) with `z` started small and random; the learning rate decays by a cosine
+    schedule to 5% of `learning_rate`. Returns the actions and the objective per iteration.
+    """
+    optax = _optax()
+    optimiser = optax.adam(optax.cosine_decay_schedule(learning_rate, iterations, 0.05))
+    start = EnvState(y=y0, steps=jnp.zeros((), dtype=int))
+
+    def loss(z):
+        return objective(rollout_states(env, start, jnp.tanh(z)))
+
+    @eqx.filter_jit
+    def update(z, opt_state):
+        value, grad = jax.value_and_grad(loss)(z)
+        with jax.numpy_dtype_promotion("standard"):
+            updates, opt_state = optimiser.update(grad, opt_state, z)
+            z = optax.apply_updates(z, updates)
+        return z, opt_state, value
+
+    z = 0.1 * jr.normal(key, (horizon, action_size), dtype=y0.dtype)
+    opt_state = optimiser.init(z)
+    history = []
+    for _ in range(iterations):
+        z, opt_state, value = update(z, opt_state)
+        history.append(value)
+    return jnp.tanh(z), jnp.stack(history)
+
+
+def rollout_states(env: AbstractEnv, state: EnvState, actions: Array) -> Float[Array, "T n"]:
+    """The states after each of `actions` (`lerax_like.rollout` without the info)."""
+    from ..env import rollout
+
+    return rollout(env, state, actions, key=jr.key(0))[0]
