@@ -19,10 +19,13 @@ import jax
 import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
+from jax.flatten_util import ravel_pytree
 
 from .._types import Array
 from ..env import AbstractEnv, EnvState, rollout
+from ..gradients import with_adjoint
 from ..integrate import Integrator, make_integrator
+from .gradcheck import _selection
 
 
 def with_integrator(env: AbstractEnv, integrator: Integrator) -> AbstractEnv:
@@ -44,8 +47,6 @@ def trajectory_sensitivity(
 
     `where(env)` must be a scalar leaf; the env's integrator gets the forward adjoint.
     """
-    from ..gradients import with_adjoint
-
     env = with_adjoint(env, "forward")
 
     def ys(parameter):
@@ -90,11 +91,11 @@ def gradient_work_precision(
         return fn, params
 
     fn, params = gradient_with(reference)
-    g_ref, _ = jax.flatten_util.ravel_pytree(fn(params))
+    g_ref, _ = ravel_pytree(fn(params))
     rows = []
     for label, integrator in integrators:
         fn, params = gradient_with(integrator)
-        g, _ = jax.flatten_util.ravel_pytree(fn(params))
+        g, _ = ravel_pytree(fn(params))
         rows.append(
             {
                 "label": label,
@@ -108,7 +109,3 @@ def gradient_work_precision(
     rows.append({"label": "reference", "gradient": np.asarray(g_ref).tolist()})
     return rows
 
-
-def _selection(tree, where):
-    spec = jax.tree.map(lambda _: False, tree)
-    return eqx.tree_at(where, spec, jax.tree.map(eqx.is_inexact_array, where(tree)))
