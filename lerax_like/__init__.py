@@ -2,6 +2,7 @@
 
 from . import physics as physics, spaces as spaces
 from .env import AbstractEnv as AbstractEnv, EnvState as EnvState, rollout as rollout
+from .gradients import ADJOINTS as ADJOINTS, make_adjoint as make_adjoint, with_adjoint as with_adjoint
 from .integrate import (
     Integrator as Integrator,
     RK4 as RK4,

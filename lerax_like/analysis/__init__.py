@@ -1,10 +1,12 @@
-"""Solver studies: work-precision, convergence orders and invariant drift, against SciPy.
+"""Studies of the envs' numerics: work-precision, convergence orders and invariant drift
+against SciPy; gradient checks and gradient accuracy.
 
 Needs the `study` extra (SciPy for the reference; matplotlib for plots; tqdm for the
 progress bar): `pip install 'lerax_like[study]'`.
 """
 
 from .convergence import convergence_orders as convergence_orders, fit_order as fit_order
+from .gradcheck import GradCheckReport as GradCheckReport, LeafCheck as LeafCheck, gradcheck as gradcheck
 from .reference import reference_trajectories as reference_trajectories
 from .report import (
     CSV_COLUMNS as CSV_COLUMNS,

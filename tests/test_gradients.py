@@ -1,0 +1,190 @@
+"""Gradients through every solver, checked against central finite differences.
+
+The smooth cases: a loss of a short rollout, differentiated with respect to the physical
+parameters (`env.dynamics` leaves), the force scale, the actions, the initial state and
+`dt`. The non-smooth cases show what finite differences say where the env is not
+differentiable: at a termination and at an action clip.
+"""
+
+import diffrax
+import jax
+import jax.numpy as jnp
+import jax.random as jr
+import numpy as np
+import pytest
+
+import lerax_like as ll
+from lerax_like.analysis import gradcheck
+from lerax_like.env import EnvState
+from lerax_like.gradients import make_adjoint, with_adjoint
+
+
+Y0 = jnp.array([0.1, -0.2, 0.3, 0.5])
+
+# Relative tolerance of autodiff against finite differences: the gradient of a fixed-step
+# solve is a polynomial-like function of its inputs; an adaptive solve moves its steps
+# with the inputs, which autodiff does not see (diffrax stops gradients through the
+# controller), so finite differences carry an O(rtol) extra term.
+FIXED_STEP_RTOL = 1e-6
+ADAPTIVE_RTOL = 1e-4
+
+
+def _rollout_loss(tree):
+    env = tree["env"]
+    state = EnvState(y=tree["y0"], steps=jnp.zeros((), dtype=int))
+    ys, _ = ll.rollout(env, state, tree["actions"], key=jr.key(0))
+    return jnp.sum(ys[-1] ** 2) + jnp.sum(jnp.cos(ys[:, 2]))
+
+
+def _continuous(solver):
+    return ll.CartPoleContinuous(solver=solver, reward="smooth")
+
+
+def _discrete(solver):
+    return ll.CartPole(solver=solver)
+
+
+# One line per scene: (name, constructor from a solver, actions, whether actions are differentiable).
+# Scenes landing on other branches add a line here.
+SCENES = [
+    ("CartPoleContinuous", _continuous, jnp.linspace(-0.8, 0.7, 4)[:, None], True),
+    ("CartPole", _discrete, jnp.array([1, 0, 0, 1]), False),
+]
+
+
+def _check(make_env, actions, differentiable_actions, solver, *, adjoint="checkpoint", mode="reverse", with_dt=True):
+    env = with_adjoint(make_env(solver), adjoint)
+    tree = {"env": env, "y0": Y0, "actions": actions}
+
+    def where(t):
+        selected = (t["env"].dynamics, t["env"].force_mag, t["y0"])
+        if differentiable_actions:
+            selected += (t["actions"],)
+        if with_dt:
+            selected += (t["env"].dt,)
+        return selected
+
+    return env, gradcheck(_rollout_loss, tree, where=where, mode=mode)
+
+
+def _rtol(env):
+    return ADAPTIVE_RTOL if env.integrator.adaptive else FIXED_STEP_RTOL
+
+
+@pytest.mark.parametrize("preset", ll.SOLVER_PRESETS)
+def test_every_preset_matches_finite_differences(preset):
+    name, make_env, actions, differentiable = SCENES[0]
+    env, report = _check(make_env, actions, differentiable, preset)
+    expected = {"['env'].dynamics.pole_mass", "['env'].dynamics.half_length", "['env'].dt", "['y0']", "['actions']"}
+    assert expected <= {leaf.path for leaf in report.leaves}
+    assert report.passed(_rtol(env)), str(report)
+
+
+@pytest.mark.parametrize("scene", SCENES[1:], ids=[s[0] for s in SCENES[1:]])
+@pytest.mark.parametrize("preset", ["euler", "dopri5"])
+def test_every_scene_matches_finite_differences(scene, preset):
+    name, make_env, actions, differentiable = scene
+    env, report = _check(make_env, actions, differentiable, preset)
+    assert report.passed(_rtol(env)), str(report)
+
+
+@pytest.mark.parametrize("preset", ["tsit5"])
+def test_forward_mode_jacfwd(preset):
+    env, report = _check(_continuous, SCENES[0][2], True, preset, adjoint="forward", mode="forward")
+    assert report.mode == "forward"
+    assert report.passed(_rtol(env)), str(report)
+
+
+def test_checkpoint_adjoint_refuses_forward_mode():
+    env = _continuous("tsit5")
+    with pytest.raises(Exception):
+        jax.jacfwd(lambda y0: ll.rollout(env, EnvState(y=y0, steps=jnp.zeros((), int)), jnp.zeros((2, 1)), key=jr.key(0))[0])(Y0)
+
+
+def test_backsolve_is_an_approximation():
+    # The continuous adjoint approximates the gradient of the continuous system, not of
+    # the discrete solution the env computes: with Euler at dt = 0.02 it is off by
+    # percents; with tight adaptive Tsit5 it agrees closely. (diffrax does not
+    # differentiate t1 = dt under BacksolveAdjoint, so dt is left out.)
+    euler_env, euler = _check(_continuous, SCENES[0][2], True, "euler", adjoint="backsolve", with_dt=False)
+    tsit5_env, tsit5 = _check(_continuous, SCENES[0][2], True, "tsit5", adjoint="backsolve", with_dt=False)
+    assert euler.max_relative_error > 1e-3, str(euler)
+    assert tsit5.passed(ADAPTIVE_RTOL), str(tsit5)
+
+
+def test_make_adjoint_names():
+    assert isinstance(make_adjoint("checkpoint"), diffrax.RecursiveCheckpointAdjoint)
+    assert isinstance(make_adjoint("forward"), diffrax.ForwardMode)
+    assert isinstance(make_adjoint("backsolve"), diffrax.BacksolveAdjoint)
+    with pytest.raises(ValueError, match="adjoint must be one of"):
+        make_adjoint("adjoint")
+    # The Integrator route: a scene built with an Integrator carries its adjoint.
+    integrator = ll.make_integrator("tsit5", adjoint=diffrax.ForwardMode())
+    assert isinstance(ll.CartPoleContinuous(solver=integrator).integrator.adjoint, diffrax.ForwardMode)
+
+
+# ---- Non-smooth cases: what finite differences expose ----
+
+
+def _episode_steps_and_loss(theta_dot0, env, horizon):
+    """Steps before termination, and the sum of theta over the steps, with autoreset."""
+    state = EnvState(y=jnp.stack([0.0, 0.0, 0.05, theta_dot0]), steps=jnp.zeros((), int))
+    keys = jr.split(jr.key(1), horizon)
+
+    def body(carry, key):
+        state, alive, total = carry
+        state, _, _, terminated, _, info = env.step(state, jnp.zeros((1,)), key=key)
+        total = total + alive * info["final_observation"][2]
+        alive = alive * (1.0 - terminated.astype(total.dtype))
+        return (state, alive, total), None
+
+    (_, alive, total), _ = jax.lax.scan(body, (state, jnp.ones(()), jnp.zeros(())), keys)
+    return total
+
+
+def test_termination_makes_finite_differences_meaningless():
+    # A loss summed until the pole crosses the 12 degree threshold jumps when a change
+    # of the initial angular velocity moves the crossing by one step. Autodiff gives the
+    # derivative of the current branch; central differences straddling the jump give a
+    # number of the order of jump / step, which is no derivative at all.
+    env = ll.CartPoleContinuous()
+    horizon = 40
+    loss = jax.jit(lambda w: _episode_steps_and_loss(w, env, horizon))
+    low, high = 0.0, 1.0  # terminates later at low, earlier at high: bisect the jump
+    jump_low, jump_high = float(loss(low)), float(loss(high))
+    for _ in range(60):
+        middle = 0.5 * (low + high)
+        if abs(float(loss(middle)) - jump_low) < abs(float(loss(middle)) - jump_high):
+            low = middle
+        else:
+            high = middle
+    at_jump = gradcheck(lambda w: loss(w), jnp.asarray(0.5 * (low + high)))
+    smooth = gradcheck(lambda w: loss(w), jnp.asarray(0.25))
+    assert smooth.passed(FIXED_STEP_RTOL), str(smooth)
+    assert at_jump.max_relative_error > 0.5, str(at_jump)
+    leaf = at_jump.leaves[0]
+    assert abs(leaf.finite_difference) > 100 * abs(leaf.autodiff), str(at_jump)
+
+
+def test_action_clip_has_no_derivative_at_the_limit():
+    # At action = 1 the force saturates: the derivative from below is the slope, from
+    # above it is zero. JAX's clip returns their average, which central differences
+    # reproduce, and neither one-sided derivative.
+    env = ll.CartPoleContinuous(reward="smooth")
+
+    def final_x_dot(action):
+        state = EnvState(y=Y0, steps=jnp.zeros((), int))
+        next_state, _ = env.transition(state, jnp.reshape(action, (1,)), key=jr.key(0))
+        return next_state.y[1]
+
+    f = jax.jit(final_x_dot)
+    h = 1e-6
+    one = jnp.asarray(1.0)
+    below = (float(f(one)) - float(f(one - h))) / h
+    above = (float(f(one + h)) - float(f(one))) / h
+    report = gradcheck(final_x_dot, one)
+    assert below > 0.1 and abs(above) < 1e-9
+    np.testing.assert_allclose(report.leaves[0].autodiff, 0.5 * below, rtol=1e-6)
+    np.testing.assert_allclose(report.leaves[0].finite_difference, 0.5 * below, rtol=1e-6)
+    # Past the limit the gradient is exactly zero: no signal for a learner.
+    assert float(jax.grad(final_x_dot)(jnp.asarray(1.5))) == 0.0

@@ -1,0 +1,43 @@
+"""System identification from Gymnasium's CartPole (the notebook `sysid_cartpole.ipynb`)."""
+
+import gymnasium as gym
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import lerax_like as ll
+from lerax_like.analysis.sysid import fit_parameters
+
+
+def _record(pole_mass, half_length, n, seed):
+    env = gym.make("CartPole-v1").unwrapped
+    env.masspole, env.length = pole_mass, half_length
+    # Gymnasium caches these in __init__.
+    env.total_mass = env.masspole + env.masscart
+    env.polemass_length = env.masspole * env.length
+    rng = np.random.default_rng(seed)
+    observation, _ = env.reset(seed=seed)
+    states, actions, next_states = [], [], []
+    for _ in range(n):
+        action = int(rng.integers(2))
+        next_observation, _, terminated, truncated, _ = env.step(action)
+        states.append(observation)
+        actions.append(action)
+        next_states.append(next_observation)
+        observation = next_observation
+        if terminated or truncated:
+            observation, _ = env.reset()
+    as64 = lambda a: jnp.asarray(np.asarray(a), dtype=jnp.float64)
+    return as64(states), jnp.asarray(actions), as64(next_states)
+
+
+@pytest.mark.parametrize("pole_mass, half_length", [(0.25, 0.65)])
+def test_recovers_pole_mass_and_half_length_from_gymnasium(pole_mass, half_length):
+    states, actions, next_states = _record(pole_mass, half_length, 100, seed=3)
+    fitted, solution = fit_parameters(
+        ll.CartPole(), lambda env: (env.dynamics.pole_mass, env.dynamics.half_length), states, actions, next_states
+    )
+    assert abs(float(fitted.dynamics.pole_mass) / pole_mass - 1) < 0.01
+    assert abs(float(fitted.dynamics.half_length) / half_length - 1) < 0.01
+    # The fit is far better than 1%: only float32 rounding of the observations is left.
+    assert abs(float(fitted.dynamics.pole_mass) / pole_mass - 1) < 1e-4
