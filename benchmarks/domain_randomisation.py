@@ -23,7 +23,7 @@ jax.config.update("jax_enable_x64", True)
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
 
 import lerax_like as ll  # noqa: E402
-from lerax_like.analysis.control import MLPPolicy, episode_lengths, train_policy  # noqa: E402
+from lerax_like.control.learning import MLPPolicy, episode_lengths, train_policy  # noqa: E402
 
 INF = float("inf")
 NUM_ENVS = 1024

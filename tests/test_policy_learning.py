@@ -4,7 +4,7 @@ import jax.numpy as jnp
 import jax.random as jr
 
 import lerax_like as ll
-from lerax_like.analysis.control import MLPPolicy, episode_lengths, train_policy
+from lerax_like.control.learning import MLPPolicy, episode_lengths, train_policy
 
 
 def test_policy_trained_on_smooth_reward_balances_for_500_steps():

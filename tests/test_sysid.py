@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import lerax_like as ll
-from lerax_like.analysis.sysid import fit_parameters
+from lerax_like.control import fit_transitions
 
 
 def _record(pole_mass, half_length, n, seed):
@@ -34,7 +34,7 @@ def _record(pole_mass, half_length, n, seed):
 @pytest.mark.parametrize("pole_mass, half_length", [(0.25, 0.65)])
 def test_recovers_pole_mass_and_half_length_from_gymnasium(pole_mass, half_length):
     states, actions, next_states = _record(pole_mass, half_length, 100, seed=3)
-    fitted, solution = fit_parameters(
+    fitted, solution = fit_transitions(
         ll.CartPole(), lambda env: (env.dynamics.pole_mass, env.dynamics.half_length), states, actions, next_states
     )
     assert abs(float(fitted.dynamics.pole_mass) / pole_mass - 1) < 0.01

@@ -4,7 +4,7 @@ import jax.numpy as jnp
 import jax.random as jr
 
 import lerax_like as ll
-from lerax_like.analysis.control import optimise_open_loop, rollout_states
+from lerax_like.control.learning import optimise_open_loop, rollout_states
 from lerax_like.env import EnvState
 
 

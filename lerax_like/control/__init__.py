@@ -1,8 +1,12 @@
 """Control and identification by gradients through the model: system identification by
-multiple shooting, gradient model-predictive control, adaptive (refitting) MPC."""
+multiple shooting (`fit_parameters`, and `fit_transitions` for one-step data), iLQR,
+adaptive (refitting) MPC, and in `lerax_like.control.learning` policy learning and
+open-loop trajectory optimisation through the simulator."""
 
 from .identification import (
     fit_parameters as fit_parameters,
+    fit_transitions as fit_transitions,
+    one_step_residuals as one_step_residuals,
     multiple_shooting_residuals as multiple_shooting_residuals,
 )
 from .ilqr import ilqr as ilqr

@@ -54,6 +54,7 @@ def fit_parameters(
     actions: Float[Array, "batch T m"],
     *,
     window: int = 5,
+    scale: Float[Array, " n"] | None = None,
     max_steps: int = 100,
     rtol: float = 1e-10,
     atol: float = 1e-10,
@@ -65,17 +66,51 @@ def fit_parameters(
     integrator: few parameters, many residuals; the env's integrator is given diffrax's
     `ForwardMode` adjoint for this), in log parameters so
     that masses and lengths stay positive. Returns the fitted env and optimistix's
-    solution (`solution.stats["num_steps"]`, `solution.result`).
+    solution (`solution.stats["num_steps"]`, `solution.result`). `scale` divides the
+    residuals per state coordinate, so that no coordinate dominates by its units.
     """
 
     env = eqx.tree_at(lambda e: e.integrator.adjoint, env, diffrax.ForwardMode())
 
     def residuals(log_parameters, _):
         model = eqx.tree_at(where, env, jax.tree.map(jnp.exp, log_parameters))
-        return multiple_shooting_residuals(model, states, actions, window)
+        residual = multiple_shooting_residuals(model, states, actions, window)
+        return residual if scale is None else residual / scale
 
     solver = optx.LevenbergMarquardt(rtol=rtol, atol=atol)
     solution = optx.least_squares(
         residuals, solver, jax.tree.map(jnp.log, where(env)), max_steps=max_steps, throw=False
     )
     return eqx.tree_at(where, env, jax.tree.map(jnp.exp, solution.value)), solution
+
+
+def _as_trajectories(states, actions, next_states):
+    # N transitions are N trajectories of one step.
+    return jnp.stack([states, next_states], axis=1), actions[:, None]
+
+
+def one_step_residuals(
+    env: AbstractEnv,
+    states: Float[Array, "N n"],
+    actions: Array,
+    next_states: Float[Array, "N n"],
+) -> Float[Array, "N n"]:
+    """The env's one-step predictions from `states` under `actions`, minus `next_states`."""
+    trajectories, trajectory_actions = _as_trajectories(states, actions, next_states)
+    return multiple_shooting_residuals(env, trajectories, trajectory_actions, window=1)[:, 0, 0]
+
+
+def fit_transitions(
+    env: AbstractEnv,
+    where: Callable[[AbstractEnv], Array],
+    states: Float[Array, "N n"],
+    actions: Array,
+    next_states: Float[Array, "N n"],
+    **options,
+) -> tuple[AbstractEnv, optx.Solution]:
+    """`fit_parameters` on observed transitions `states --actions--> next_states`
+    (from anywhere in any episodes), residuals scaled by the spread of the observed
+    changes per coordinate."""
+    trajectories, trajectory_actions = _as_trajectories(states, actions, next_states)
+    scale = jnp.std(next_states - states, axis=0) + jnp.finfo(states.dtype).eps
+    return fit_parameters(env, where, trajectories, trajectory_actions, window=1, scale=scale, **options)
