@@ -11,24 +11,29 @@ from .integrate import (
     has_error_estimate as has_error_estimate,
     make_integrator as make_integrator,
 )
-from .physics import AbstractDynamics as AbstractDynamics, CartPoleDynamics as CartPoleDynamics
 from .physics import (
+    AbstractConservativeDynamics as AbstractConservativeDynamics,
+    AbstractDynamics as AbstractDynamics,
     AcrobotDynamics as AcrobotDynamics,
+    CartChainDynamics as CartChainDynamics,
+    CartPoleDynamics as CartPoleDynamics,
     MountainCarDynamics as MountainCarDynamics,
+    NLinkPendulumDynamics as NLinkPendulumDynamics,
     PendulumDynamics as PendulumDynamics,
+    VanDerPolDynamics as VanDerPolDynamics,
 )
-from .scenes import CartPole as CartPole, CartPoleContinuous as CartPoleContinuous
 from .scenes import (
     Acrobot as Acrobot,
+    CartPole as CartPole,
+    CartPoleContinuous as CartPoleContinuous,
+    DoubleCartPole as DoubleCartPole,
     MountainCar as MountainCar,
     MountainCarContinuous as MountainCarContinuous,
+    NLinkPendulum as NLinkPendulum,
     Pendulum as Pendulum,
+    VanDerPol as VanDerPol,
 )
-from .physics import VanDerPolDynamics as VanDerPolDynamics
-from .scenes import VanDerPol as VanDerPol
 from .spaces import Box as Box, Discrete as Discrete
-from .physics import CartChainDynamics as CartChainDynamics, NLinkPendulumDynamics as NLinkPendulumDynamics
-from .scenes import DoubleCartPole as DoubleCartPole, NLinkPendulum as NLinkPendulum
 
 __version__ = "0.1.0"
 
