@@ -71,10 +71,22 @@ def _rtol(env):
     return ADAPTIVE_RTOL if env.integrator.adaptive else FIXED_STEP_RTOL
 
 
+# Adaptive implicit Euler: the steps move with the inputs, which finite differences see and
+# autodiff does not (diffrax stops gradients through the controller). For a first-order
+# method that term is O(h), and h ~ sqrt(rtol): measured, autodiff and finite differences
+# differ by up to 2e-2 at the preset's rtol 1e-3 and still by 5e-4 at rtol 1e-6. So its
+# gradient is checked on constant steps (stage root-finder tolerances set explicitly by
+# the preset), where it is the exact gradient of the discrete map.
+PRESET_CONTROLLERS = {"implicit_euler": diffrax.ConstantStepSize()}
+
+
 @pytest.mark.parametrize("preset", ll.SOLVER_PRESETS)
 def test_every_preset_matches_finite_differences(preset):
     name, make_env, actions, differentiable = SCENES[0]
-    env, report = _check(make_env, actions, differentiable, preset)
+    solver = preset
+    if preset in PRESET_CONTROLLERS:
+        solver = ll.make_integrator(preset, PRESET_CONTROLLERS[preset])
+    env, report = _check(make_env, actions, differentiable, solver)
     expected = {"['env'].dynamics.pole_mass", "['env'].dynamics.half_length", "['env'].dt", "['y0']", "['actions']"}
     assert expected <= {leaf.path for leaf in report.leaves}
     assert report.passed(_rtol(env)), str(report)
