@@ -1,4 +1,5 @@
-"""System identification from Gymnasium's CartPole (the notebook `sysid_cartpole.ipynb`)."""
+"""System identification from data recorded from Gymnasium's own envs: CartPole (the notebook
+`sysid_cartpole.ipynb`) and Pendulum."""
 
 import gymnasium as gym
 import jax.numpy as jnp
@@ -41,3 +42,31 @@ def test_recovers_pole_mass_and_half_length_from_gymnasium(pole_mass, half_lengt
     assert abs(float(fitted.dynamics.half_length) / half_length - 1) < 0.01
     # The fit is far better than 1%: only float32 rounding of the observations is left.
     assert abs(float(fitted.dynamics.pole_mass) / pole_mass - 1) < 1e-4
+
+
+def _record_pendulum(mass, length, n, seed):
+    env = gym.make("Pendulum-v1").unwrapped
+    env.m, env.l = mass, length
+    rng = np.random.default_rng(seed)
+    env.reset(seed=seed)
+    states, actions, next_states = [], [], []
+    for _ in range(n):
+        state = np.array(env.state, dtype=np.float64)
+        action = rng.uniform(-2.0, 2.0, size=(1,))  # float64: Gymnasium then computes in float64
+        env.step(action)
+        states.append(state)
+        actions.append(action)
+        next_states.append(np.array(env.state, dtype=np.float64))
+    return jnp.asarray(np.stack(states)), jnp.asarray(np.stack(actions)), jnp.asarray(np.stack(next_states))
+
+
+def test_recovers_pendulum_mass_and_length_from_gymnasium():
+    mass, length = 1.4, 0.7
+    states, actions, next_states = _record_pendulum(mass, length, 100, seed=5)
+    # Not vacuous: the data move, and the speed clip (non-smooth) stays inactive.
+    assert np.max(np.abs(np.asarray(next_states[:, 1]))) < 8.0
+    fitted, _ = fit_transitions(
+        ll.Pendulum(), lambda env: (env.dynamics.mass, env.dynamics.length), states, actions, next_states
+    )
+    assert abs(float(fitted.dynamics.mass) / mass - 1) < 0.01
+    assert abs(float(fitted.dynamics.length) / length - 1) < 0.01
