@@ -28,6 +28,27 @@ def _check_road(min_position, max_position, goal_position) -> None:
         )
 
 
+def _road_parts(
+    gravity, min_position, max_position, max_speed, goal_position, goal_velocity, dt, solver,
+    stepsize_controller,
+) -> tuple[MountainCarDynamics, Integrator, Scalar, Scalar, Scalar, Scalar, Scalar, Scalar]:
+    """What both mountain cars build from their shared keywords, checked."""
+    check_positive_or_inf(max_speed, "max_speed")
+    check_finite(goal_velocity, "goal_velocity")
+    check_positive(dt, "dt")
+    _check_road(min_position, max_position, goal_position)
+    return (
+        MountainCarDynamics(gravity=gravity),
+        make_integrator(solver, stepsize_controller),
+        as_parameter(dt, "dt"),
+        as_parameter(min_position, "min_position"),
+        as_parameter(max_position, "max_position"),
+        as_parameter(max_speed, "max_speed"),
+        as_parameter(goal_position, "goal_position"),
+        as_parameter(goal_velocity, "goal_velocity"),
+    )
+
+
 class AbstractMountainCar(AbstractEnv):
     """What the discrete and continuous mountain cars share: road, start, projection, goal."""
 
@@ -131,19 +152,14 @@ class MountainCar(AbstractMountainCar):
         max_episode_steps: int | None = 200,
     ):
         check_positive(force, "force")
-        check_positive_or_inf(max_speed, "max_speed")
-        check_finite(goal_velocity, "goal_velocity")
-        check_positive(dt, "dt")
-        _check_road(min_position, max_position, goal_position)
-        self.dynamics = MountainCarDynamics(gravity=gravity)
-        self.integrator = make_integrator(solver, stepsize_controller)
-        self.dt = as_parameter(dt, "dt")
+        (
+            self.dynamics, self.integrator, self.dt, self.min_position, self.max_position,
+            self.max_speed, self.goal_position, self.goal_velocity,
+        ) = _road_parts(
+            gravity, min_position, max_position, max_speed, goal_position, goal_velocity, dt,
+            solver, stepsize_controller,
+        )
         self.force = as_parameter(force, "force")
-        self.min_position = as_parameter(min_position, "min_position")
-        self.max_position = as_parameter(max_position, "max_position")
-        self.max_speed = as_parameter(max_speed, "max_speed")
-        self.goal_position = as_parameter(goal_position, "goal_position")
-        self.goal_velocity = as_parameter(goal_velocity, "goal_velocity")
         self.max_episode_steps = max_episode_steps
 
     @property
@@ -205,19 +221,14 @@ class MountainCarContinuous(AbstractMountainCar):
         max_episode_steps: int | None = 999,
     ):
         check_positive(power, "power")
-        check_positive_or_inf(max_speed, "max_speed")
-        check_finite(goal_velocity, "goal_velocity")
-        check_positive(dt, "dt")
-        _check_road(min_position, max_position, goal_position)
-        self.dynamics = MountainCarDynamics(gravity=gravity)
-        self.integrator = make_integrator(solver, stepsize_controller)
-        self.dt = as_parameter(dt, "dt")
+        (
+            self.dynamics, self.integrator, self.dt, self.min_position, self.max_position,
+            self.max_speed, self.goal_position, self.goal_velocity,
+        ) = _road_parts(
+            gravity, min_position, max_position, max_speed, goal_position, goal_velocity, dt,
+            solver, stepsize_controller,
+        )
         self.power = as_parameter(power, "power")
-        self.min_position = as_parameter(min_position, "min_position")
-        self.max_position = as_parameter(max_position, "max_position")
-        self.max_speed = as_parameter(max_speed, "max_speed")
-        self.goal_position = as_parameter(goal_position, "goal_position")
-        self.goal_velocity = as_parameter(goal_velocity, "goal_velocity")
         self.max_episode_steps = max_episode_steps
 
     @property
