@@ -181,7 +181,10 @@ class Integrator(eqx.Module):
                 "atol=1e-6, norm=optimistix.rms_norm)), as the implicit presets do."
             )
         if max_steps is None:
-            max_steps = 4096 if adaptive else substeps
+            if isinstance(stepsize_controller, diffrax.StepTo):
+                max_steps = len(stepsize_controller.ts) - 1
+            else:
+                max_steps = 4096 if adaptive else substeps
         check_count(max_steps, "max_steps")
         self.solver = solver
         self.stepsize_controller = stepsize_controller
@@ -192,6 +195,18 @@ class Integrator(eqx.Module):
     @property
     def adaptive(self) -> bool:
         return isinstance(self.stepsize_controller, diffrax.AbstractAdaptiveStepSizeController)
+
+    @property
+    def _single_step(self) -> bool:
+        # One constant step whose gradient is the plain derivative of the step: the
+        # solver's own `step` is called directly. `diffeqsolve` would run it inside its
+        # step loop, which XLA cannot fuse with the rest of an env step (about a tenth of
+        # a vmapped CartPole step, see benchmarks/profile_step.py); the result is the same.
+        return (
+            type(self.stepsize_controller) is diffrax.ConstantStepSize
+            and self.substeps == 1
+            and isinstance(self.adjoint, (diffrax.RecursiveCheckpointAdjoint, diffrax.ForwardMode))
+        )
 
     def integrate(
         self,
@@ -221,12 +236,14 @@ class Integrator(eqx.Module):
         # trial step of the whole `dt` can overflow on a stiff problem, and the
         # PIDController turns the resulting NaN error into a NaN step size that rejects
         # every later step (Van der Pol, mu=1e3, dt=10: 0 of 4096 steps accepted).
-        dt0 = None if self.adaptive else dt / self.substeps
+        dt0 = dt / self.substeps if isinstance(self.stepsize_controller, diffrax.ConstantStepSize) else None
         if projection is None and velocity_indices is None:
             term = diffrax.ODETerm(vector_field)
         else:
             optional = {} if projection is None else {"projection": projection}
             term = ProjectedODETerm(vector_field, velocity_indices=velocity_indices, **optional)
+        if self._single_step:
+            return self._step_once(term, y0, u, dt, projection)
         solution = diffrax.diffeqsolve(
             term,
             self.solver,
@@ -240,16 +257,28 @@ class Integrator(eqx.Module):
             adjoint=self.adjoint,
             throw=False,
         )
-        y1 = solution.ys[-1]
+        steps: IntScalar = solution.stats["num_accepted_steps"]
+        rejected: IntScalar = solution.stats["num_steps"] - steps
+        solved = solution.result == diffrax.RESULTS.successful
+        return self._finish(solution.ys[-1], solved, steps, rejected, projection)
+
+    def _step_once(self, term, y0, u, dt, projection):
+        t0 = jnp.zeros((), dtype=y0.dtype)
+        solver_state = self.solver.init(term, t0, dt, y0, u)
+        y1, _, _, _, result = self.solver.step(term, t0, dt, y0, u, solver_state, made_jump=False)
+        # Counts as `diffeqsolve` reports them: one accepted step, none rejected.
+        return self._finish(y1, result == diffrax.RESULTS.successful, jnp.asarray(1), jnp.asarray(0), projection)
+
+    @staticmethod
+    def _finish(y1, solved, steps, rejected, projection):
         # Checked before the projection too: clipping an infinite speed to its bound
         # would otherwise make a diverged solve look finite.
         finite = jnp.all(jnp.isfinite(y1))
         if projection is not None:
             y1 = projection(y1)
-        ok: BoolScalar = (solution.result == diffrax.RESULTS.successful) & finite & jnp.all(jnp.isfinite(y1))
-        steps: IntScalar = solution.stats["num_accepted_steps"]
-        rejected: IntScalar = solution.stats["num_steps"] - steps
-        return y1, {"solver_ok": ok, "solver_steps": steps, "solver_rejected_steps": rejected}
+        ok: BoolScalar = solved & finite & jnp.all(jnp.isfinite(y1))
+        info = {"solver_ok": ok, "solver_steps": steps, "solver_rejected_steps": rejected}
+        return y1, info
 
 
 def make_integrator(
