@@ -5,6 +5,7 @@ An env is an Equinox module, so it is a pytree: its physical parameters are leav
 """
 
 import abc
+from typing import ClassVar
 
 import equinox as eqx
 import jax
@@ -17,14 +18,18 @@ from .physics import AbstractDynamics
 from .spaces import AbstractSpace
 
 
-def _purpose_keys(key: Key, count: int) -> tuple[Key, ...]:
-    """`count` independent keys, one per purpose, as `jr.fold_in(key, i)`.
+def _part_keys(key: Key, count: int, stochastic: bool) -> tuple[Key | None, ...]:
+    """Keys for the `count` parts of a `reset` or a `step`, the one that draws the start last.
 
-    Unlike `jr.split(key, count)`, which hashes all `count` counters in one op, each
-    `fold_in` is its own small op, so XLA drops the keys a scene never uses (CartPole
-    uses none but the reset's): key work dominates a vmapped env step.
+    A stochastic env's parts each get their own key, `jr.fold_in(key, i)`: unlike
+    `jr.split(key, count)`, which hashes all `count` counters in one op, each `fold_in` is
+    its own small op, so XLA drops the keys a part never uses. A deterministic env's parts
+    get `None`, and the start draw gets `key` itself: key work dominates a vmapped env
+    step, and deriving a key costs a hash, as much as a draw.
     """
-    return tuple(jr.fold_in(key, i) for i in range(count))
+    if stochastic:
+        return tuple(jr.fold_in(key, i) for i in range(count))
+    return (None,) * (count - 1) + (key,)
 
 
 class EnvState(eqx.Module):
@@ -42,7 +47,15 @@ class AbstractEnv(eqx.Module):
 
     Scenes provide `initial`, `physical_input`, `observation`, `reward`, `terminal` and
     the two spaces; `transition`, `truncate`, `reset` and `step` are built from them.
+
+    `stochastic` says whether `transition`, `observation`, `reward` or `terminal` draw
+    random numbers (`initial` always does). True, the safe default, gives each its own
+    key. A scene that declares False, as every scene here does, has them called with
+    `key=None` (one that draws anyway fails at once), and its `reset` and `step` hand
+    their whole key to `initial`: key work dominates a vmapped step.
     """
+
+    stochastic: ClassVar[bool] = True
 
     dynamics: eqx.AbstractVar[AbstractDynamics]
     integrator: eqx.AbstractVar[Integrator]
@@ -59,22 +72,26 @@ class AbstractEnv(eqx.Module):
 
     @abc.abstractmethod
     def initial(self, *, key: Key) -> EnvState:
-        """A random initial state."""
+        """A random initial state.
+
+        The scenes here draw it with `lerax_like._random.uniform`: 16 random bits per
+        coordinate, one hash for four, since key work dominates a vmapped step.
+        """
 
     @abc.abstractmethod
     def physical_input(self, action: Array) -> Input:
         """The physical input `u` (forces, torques) that `action` applies to the dynamics."""
 
     @abc.abstractmethod
-    def observation(self, state: EnvState, *, key: Key) -> Float[Array, "..."]:
+    def observation(self, state: EnvState, *, key: Key | None) -> Float[Array, "..."]:
         """What the agent sees of `state`."""
 
     @abc.abstractmethod
-    def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key) -> Scalar:
+    def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
         """The reward of the transition `state --action--> next_state`."""
 
     @abc.abstractmethod
-    def terminal(self, state: EnvState, *, key: Key) -> BoolScalar:
+    def terminal(self, state: EnvState, *, key: Key | None) -> BoolScalar:
         """Whether `state` ends the episode (the task's own end, not a time limit)."""
 
     def project(self, y: State) -> State:
@@ -88,7 +105,9 @@ class AbstractEnv(eqx.Module):
         """
         return y
 
-    def transition(self, state: EnvState, action: Array, *, key: Key) -> tuple[EnvState, dict[str, Array]]:
+    def transition(
+        self, state: EnvState, action: Array, *, key: Key | None
+    ) -> tuple[EnvState, dict[str, Array]]:
         """Integrate the dynamics over `[0, dt]` with the action's input held constant.
 
         The end state is projected by `project`; with `SemiImplicitEuler`, the state
@@ -118,7 +137,7 @@ class AbstractEnv(eqx.Module):
         return state.steps >= self.max_episode_steps
 
     def reset(self, *, key: Key) -> tuple[EnvState, Array, dict[str, Array]]:
-        initial_key, observation_key = _purpose_keys(key, 2)
+        observation_key, initial_key = _part_keys(key, 2, self.stochastic)
         state = self.initial(key=initial_key)
         return state, self.observation(state, key=observation_key), {}
 
@@ -147,7 +166,7 @@ class AbstractEnv(eqx.Module):
         to avoid the actions that break the solver rather than to exploit them.
         `info["solver_ok"]` tells this end apart from the task's own.
         """
-        transition_key, observation_key, reward_key, terminal_key, reset_key = _purpose_keys(key, 5)
+        transition_key, observation_key, reward_key, terminal_key, reset_key = _part_keys(key, 5, self.stochastic)
         next_state, info = self.transition(state, action, key=transition_key)
         observation = self.observation(next_state, key=observation_key)
         reward = self.reward(state, action, next_state, key=reward_key)
@@ -177,12 +196,12 @@ def rollout(
     Pure, so `jax.grad` of a loss of the trajectory flows to parameters, actions, `dt`
     and the initial state.
     """
-    keys = jr.split(key, actions.shape[0])
+    keys = jr.split(key, actions.shape[0]) if env.stochastic else None
 
     def body(state, inputs):
-        action, step_key = inputs
+        action, step_key = inputs if env.stochastic else (inputs, None)
         next_state, info = env.transition(state, action, key=step_key)
         return next_state, (next_state.y, info)
 
-    _, (ys, infos) = jax.lax.scan(body, state, (actions, keys))
+    _, (ys, infos) = jax.lax.scan(body, state, (actions, keys) if env.stochastic else actions)
     return ys, infos

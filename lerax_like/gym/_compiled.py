@@ -60,9 +60,22 @@ def _functions(treedef, static):
     def scene_of(leaves) -> AbstractEnv:
         return eqx.combine(jax.tree.unflatten(treedef, leaves), static)
 
+    def split(scene, key, count, num_envs=None):
+        """The carried key and `count` keys (per env, given `num_envs`) for the scene's parts.
+
+        A deterministic scene (`stochastic` False) gets `None` and the key is carried
+        unchanged: its starts come from NumPy here, so it needs no key work at all.
+        """
+        if not scene.stochastic:
+            return key, (None,) * count
+        key, *parts = jr.split(key, count + 1)
+        if num_envs is not None:
+            parts = [jr.split(part, num_envs) for part in parts]
+        return key, tuple(parts)
+
     def transition(scene, y, steps, action, key):
         state = EnvState(y=y, steps=steps)
-        transition_key, reward_key, terminal_key = jr.split(key, 3)
+        _, (transition_key, reward_key, terminal_key) = split(scene, key, 3)
         next_state, info = scene.transition(state, action, key=transition_key)
         reward = scene.reward(state, action, next_state, key=reward_key)
         # As `AbstractEnv.step`: a failed solve, or a reward that overflows, ends the
@@ -90,7 +103,7 @@ def _functions(treedef, static):
     @jax.jit
     def step(leaves, y, steps, action, key):
         scene = scene_of(leaves)
-        key, step_key, observation_key = jr.split(key, 3)
+        key, (step_key, observation_key) = split(scene, key, 2)
         next_y, reward, terminated, info = transition(scene, y, steps, action, step_key)
         observation = observe_one(scene, next_y, steps + 1, observation_key)
         observation, terminated, info = guard_observation(
@@ -110,8 +123,9 @@ def _functions(treedef, static):
 
     @jax.jit
     def observe(leaves, y, steps, key):
-        key, observation_key = jr.split(key)
-        return observe_one(scene_of(leaves), y, steps, observation_key), key
+        scene = scene_of(leaves)
+        key, (observation_key,) = split(scene, key, 1)
+        return observe_one(scene, y, steps, observation_key), key
 
     @jax.jit
     def vector_step(leaves, y, steps, action, key, reset_mask, reset_y, max_episode_steps):
@@ -122,10 +136,7 @@ def _functions(treedef, static):
         False. One compilation serves every time limit and every pattern of restarts.
         """
         scene = scene_of(leaves)
-        num_envs = y.shape[0]
-        key, step_key, observation_key = jr.split(key, 3)
-        step_keys = jr.split(step_key, num_envs)
-        observation_keys = jr.split(observation_key, num_envs)
+        key, (step_keys, observation_keys) = split(scene, key, 2, num_envs=y.shape[0])
         next_y, reward, terminated, info = jax.vmap(transition, in_axes=(None, 0, 0, 0, 0))(
             scene, y, steps, action, step_keys
         )
@@ -157,9 +168,9 @@ def _functions(treedef, static):
 
     @jax.jit
     def vector_observe(leaves, y, steps, key):
-        key, observation_key = jr.split(key)
-        observation_keys = jr.split(observation_key, y.shape[0])
-        observation = jax.vmap(observe_one, in_axes=(None, 0, 0, 0))(scene_of(leaves), y, steps, observation_keys)
+        scene = scene_of(leaves)
+        key, (observation_keys,) = split(scene, key, 1, num_envs=y.shape[0])
+        observation = jax.vmap(observe_one, in_axes=(None, 0, 0, 0))(scene, y, steps, observation_keys)
         return observation, key
 
     return step, observe, vector_step, vector_observe

@@ -1,12 +1,12 @@
 import math
-from typing import Literal
+from typing import ClassVar, Literal
 
 import diffrax
 import equinox as eqx
 import jax.numpy as jnp
-import jax.random as jr
 
 from .._checks import as_parameter, check_positive, check_positive_or_inf
+from .._random import uniform
 from .._types import Array, BoolScalar, Input, Key, Scalar, ScalarLike, State
 from ..env import AbstractEnv, EnvState
 from ..integrate import Integrator, make_integrator
@@ -65,6 +65,8 @@ class Acrobot(AbstractEnv):
     `stepsize_controller`, `max_episode_steps`. Gymnasium's optional torque noise
     (`torque_noise_max`, 0 by default there) is not modelled.
     """
+
+    stochastic: ClassVar[bool] = False  # nothing random but the start
 
     dynamics: AcrobotDynamics
     integrator: Integrator
@@ -127,7 +129,7 @@ class Acrobot(AbstractEnv):
         return Box(-high, high)
 
     def initial(self, *, key: Key) -> EnvState:
-        y = jr.uniform(key, (4,), self.dt.dtype, minval=-0.1, maxval=0.1)
+        y = uniform(key, (4,), self.dt.dtype, -0.1, 0.1)
         return EnvState(y=y, steps=jnp.zeros((), dtype=int))
 
     def physical_input(self, action: Array) -> Input:

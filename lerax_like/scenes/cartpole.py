@@ -1,12 +1,12 @@
 import math
-from typing import Literal
+from typing import ClassVar, Literal
 
 import diffrax
 import equinox as eqx
 import jax.numpy as jnp
-import jax.random as jr
 
 from .._checks import as_parameter, check_nonnegative, check_positive, check_positive_or_inf
+from .._random import uniform
 from .._types import Array, BoolScalar, Input, Key, Scalar, ScalarLike
 from ..env import AbstractEnv, EnvState
 from ..integrate import Integrator, make_integrator
@@ -56,7 +56,7 @@ class AbstractCartPole(AbstractEnv):
         return Box(-high, high)
 
     def initial(self, *, key: Key) -> EnvState:
-        y = jr.uniform(key, (4,), self.dt.dtype, minval=-0.05, maxval=0.05)
+        y = uniform(key, (4,), self.dt.dtype, -0.05, 0.05)
         return EnvState(y=y, steps=jnp.zeros((), dtype=int))
 
     def observation(self, state: EnvState, *, key: Key) -> Array:
@@ -111,6 +111,8 @@ class CartPole(AbstractCartPole):
     `x_threshold=inf` to let the cart reach them). See `CartPoleDynamics`; stiff settings
     need an adaptive solver (`"tsit5"`) or an implicit one (`"kvaerno5"`).
     """
+
+    stochastic: ClassVar[bool] = False  # nothing random but the start
 
     dynamics: CartPoleDynamics
     integrator: Integrator
@@ -188,6 +190,8 @@ class CartPoleContinuous(AbstractCartPole):
     ## Arguments
     Those of `CartPole` (the stiff options included), plus `reward` and `action_cost` (>= 0).
     """
+
+    stochastic: ClassVar[bool] = False  # nothing random but the start
 
     dynamics: CartPoleDynamics
     integrator: Integrator

@@ -1,12 +1,12 @@
 import math
-from typing import Literal
+from typing import ClassVar, Literal
 
 import diffrax
 import equinox as eqx
 import jax.numpy as jnp
-import jax.random as jr
 
 from .._checks import as_parameter, check_nonnegative, check_positive, check_positive_or_inf
+from .._random import uniform
 from .._types import Array, BoolScalar, Input, Key, Scalar, ScalarLike
 from ..env import AbstractEnv, EnvState
 from ..integrate import Integrator, make_integrator
@@ -57,6 +57,8 @@ class DoubleCartPole(AbstractEnv):
     `dt`, `solver` (a preset name, a diffrax solver or an `Integrator`; default "rk4"),
     `stepsize_controller`, `max_episode_steps`.
     """
+
+    stochastic: ClassVar[bool] = False  # nothing random but the start
 
     dynamics: CartChainDynamics
     integrator: Integrator
@@ -118,7 +120,7 @@ class DoubleCartPole(AbstractEnv):
         return Box(-jnp.inf, jnp.inf, (6,))
 
     def initial(self, *, key: Key) -> EnvState:
-        y = jr.uniform(key, (6,), self.dt.dtype, minval=-0.05, maxval=0.05)
+        y = uniform(key, (6,), self.dt.dtype, -0.05, 0.05)
         if self.task == "swing_up":
             y = y.at[1:3].add(math.pi)
         return EnvState(y=y, steps=jnp.zeros((), dtype=int))

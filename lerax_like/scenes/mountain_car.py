@@ -1,10 +1,12 @@
+from typing import ClassVar
+
 import diffrax
 import equinox as eqx
 import jax.numpy as jnp
-import jax.random as jr
 import numpy as np
 
 from .._checks import _concrete, as_parameter, check_finite, check_positive, check_positive_or_inf
+from .._random import uniform
 from .._types import Array, BoolScalar, Input, Key, Scalar, ScalarLike, State
 from ..env import AbstractEnv, EnvState
 from ..integrate import Integrator, make_integrator
@@ -66,7 +68,7 @@ class AbstractMountainCar(AbstractEnv):
         )
 
     def initial(self, *, key: Key) -> EnvState:
-        position = jr.uniform(key, (), self.dt.dtype, minval=-0.6, maxval=-0.4)
+        position = uniform(key, (), self.dt.dtype, -0.6, -0.4)
         y = jnp.stack([position, jnp.zeros_like(position)])
         return EnvState(y=y, steps=jnp.zeros((), dtype=int))
 
@@ -119,6 +121,8 @@ class MountainCar(AbstractMountainCar):
     ## Rewards
     -1 for every step.
     """ + _COMMON_DOC + """
+
+    stochastic: ClassVar[bool] = False  # nothing random but the start
     ## Arguments
     `gravity` (0.0025), `force` (0.001), `min_position` (-1.2), `max_position` (0.6),
     `max_speed` (0.07), `goal_position` (0.5), `goal_velocity` (0), `dt` (1), `solver`,
@@ -188,6 +192,8 @@ class MountainCarContinuous(AbstractMountainCar):
     `-0.1 * action**2` every step (on the action as given, before clipping, as Gymnasium
     does), plus 100 on the step that reaches the goal.
     """ + _COMMON_DOC + """
+
+    stochastic: ClassVar[bool] = False  # nothing random but the start
     ## Arguments
     `gravity` (0.0025), `power` (0.0015), `min_position` (-1.2), `max_position` (0.6),
     `max_speed` (0.07), `goal_position` (0.45), `goal_velocity` (0), `dt` (1), `solver`,

@@ -1,11 +1,12 @@
 import math
+from typing import ClassVar
 
 import diffrax
 import equinox as eqx
 import jax.numpy as jnp
-import jax.random as jr
 
 from .._checks import as_parameter, check_nonnegative, check_positive
+from .._random import uniform
 from .._types import Array, BoolScalar, Input, Key, Scalar, ScalarLike
 from ..env import AbstractEnv, EnvState
 from ..integrate import Integrator, make_integrator
@@ -48,6 +49,8 @@ class NLinkPendulum(AbstractEnv):
     default "rk4"), `stepsize_controller`, `max_episode_steps`. The number of links n is
     the length of `masses`.
     """
+
+    stochastic: ClassVar[bool] = False  # nothing random but the start
 
     dynamics: NLinkPendulumDynamics
     integrator: Integrator
@@ -92,11 +95,10 @@ class NLinkPendulum(AbstractEnv):
         return Box(-jnp.inf, jnp.inf, (2 * self.n_links,))
 
     def initial(self, *, key: Key) -> EnvState:
-        angle_key, rate_key = jr.split(key)
-        n = self.n_links
-        angles = jr.uniform(angle_key, (n,), self.dt.dtype, minval=-math.pi, maxval=math.pi)
-        rates = jr.uniform(rate_key, (n,), self.dt.dtype, minval=-0.05, maxval=0.05)
-        return EnvState(y=jnp.concatenate([angles, rates]), steps=jnp.zeros((), dtype=int))
+        # Angles uniform in [-pi, pi), rates in [-0.05, 0.05).
+        high = jnp.repeat(jnp.array([math.pi, 0.05], dtype=self.dt.dtype), self.n_links)
+        y = uniform(key, (2 * self.n_links,), self.dt.dtype, -high, high)
+        return EnvState(y=y, steps=jnp.zeros((), dtype=int))
 
     def physical_input(self, action: Array) -> Input:
         return self.max_torque * jnp.clip(jnp.reshape(action, (self.n_links,)), -1.0, 1.0)

@@ -1,9 +1,11 @@
+from typing import ClassVar
+
 import diffrax
 import equinox as eqx
 import jax.numpy as jnp
-import jax.random as jr
 
 from .._checks import as_parameter, check_positive, check_positive_or_inf
+from .._random import uniform
 from .._types import Array, BoolScalar, Input, Key, Scalar, ScalarLike, State
 from ..env import AbstractEnv, EnvState
 from ..integrate import Integrator, make_integrator
@@ -51,6 +53,8 @@ class Pendulum(AbstractEnv):
     `Integrator`), `stepsize_controller`, `max_episode_steps`.
     """
 
+    stochastic: ClassVar[bool] = False  # nothing random but the start
+
     dynamics: PendulumDynamics
     integrator: Integrator
     dt: Scalar
@@ -92,7 +96,7 @@ class Pendulum(AbstractEnv):
 
     def initial(self, *, key: Key) -> EnvState:
         high = jnp.array([jnp.pi, 1.0], dtype=self.dt.dtype)
-        y = jr.uniform(key, (2,), self.dt.dtype, minval=-high, maxval=high)
+        y = uniform(key, (2,), self.dt.dtype, -high, high)
         return EnvState(y=y, steps=jnp.zeros((), dtype=int))
 
     def physical_input(self, action: Array) -> Input:

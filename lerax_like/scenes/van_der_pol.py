@@ -1,9 +1,11 @@
+from typing import ClassVar
+
 import diffrax
 import equinox as eqx
 import jax.numpy as jnp
-import jax.random as jr
 
 from .._checks import as_parameter, check_nonnegative, check_positive
+from .._random import uniform
 from .._types import Array, BoolScalar, Input, Key, Scalar, ScalarLike
 from ..env import AbstractEnv, EnvState
 from ..integrate import Integrator, make_integrator
@@ -47,6 +49,8 @@ class VanDerPol(AbstractEnv):
     `max_episode_steps`.
     """
 
+    stochastic: ClassVar[bool] = False  # nothing random but the start
+
     dynamics: VanDerPolDynamics
     integrator: Integrator
     dt: Scalar
@@ -88,7 +92,7 @@ class VanDerPol(AbstractEnv):
         return Box(-jnp.inf, jnp.inf, (2,))
 
     def initial(self, *, key: Key) -> EnvState:
-        y = jr.uniform(key, (2,), self.dt.dtype, minval=-0.5, maxval=0.5)
+        y = uniform(key, (2,), self.dt.dtype, -0.5, 0.5)
         return EnvState(y=y, steps=jnp.zeros((), dtype=int))
 
     def physical_input(self, action: Array) -> Input:
