@@ -1,13 +1,17 @@
 """The compiled steps behind the Gymnasium wrappers, and the float64 scope they run in.
 
 A scene is split once into its array leaves and its static rest. The jitted functions
-take the leaves as an argument (so a changed physical parameter needs no recompile) and
-close over the static rest; they are cached by that rest, so every env of the same
-configuration (`check_env` and `make_vec` build several) shares one compilation. This
-avoids `eqx.filter_jit`, whose per-call partitioning would dominate a step this small.
+take the leaves, packed into one float64 vector, as an argument (so a changed physical
+parameter needs no recompile) and close over the static rest; they are cached by that
+rest, so every env of the same configuration (`check_env` and `make_vec` build several)
+shares one compilation. This avoids `eqx.filter_jit`, whose per-call partitioning would
+dominate a step this small; and every argument and result of a jitted call costs a few
+microseconds of dispatch, as much as a whole batched CartPole step, hence the packing of
+the inputs into few arrays and of the results into one.
 """
 
 import functools
+import math
 from collections.abc import Callable
 from typing import Any
 
@@ -31,15 +35,27 @@ def build_scene(scene_cls: type[AbstractEnv], kwargs: dict[str, Any]) -> Abstrac
 
 
 class SplitScene:
-    """A scene as (array leaves, treedef, static rest), with the compiled functions for it."""
+    """A scene as packed float64 parameters and a static rest, with the compiled functions for it.
+
+    `key(seed)` is the key the functions carry: `None` for a deterministic scene
+    (`stochastic` False), whose starts come from NumPy here, so it needs no key work at all.
+    """
 
     def __init__(self, scene: AbstractEnv):
         params, static = eqx.partition(scene, eqx.is_array)
         leaves, treedef = jax.tree.flatten(params)
+        layout = tuple((leaf.shape, leaf.dtype) for leaf in leaves)
         self.scene = scene
-        self.leaves = leaves
-        functions = _functions(treedef, static)
+        with float64():
+            self.parameters = jnp.concatenate([jnp.ravel(leaf).astype(jnp.float64) for leaf in leaves] + [jnp.zeros(0)])
+        functions = _functions(treedef, static, layout)
         self.step, self.observe, self.vector_step, self.vector_observe = functions
+
+    def key(self, seed: int) -> jax.Array | None:
+        if not self.scene.stochastic:
+            return None
+        with float64():
+            return jr.key(int(seed) % 2**32)
 
 
 def _cache(function: Callable) -> Callable:
@@ -56,17 +72,21 @@ def _cache(function: Callable) -> Callable:
 
 
 @_cache
-def _functions(treedef, static):
-    def scene_of(leaves) -> AbstractEnv:
+def _functions(treedef, static, layout):
+    def scene_of(parameters) -> AbstractEnv:
+        leaves, start = [], 0
+        for shape, dtype in layout:
+            size = math.prod(shape)
+            leaves.append(parameters[start : start + size].reshape(shape).astype(dtype))
+            start += size
         return eqx.combine(jax.tree.unflatten(treedef, leaves), static)
 
     def split(scene, key, count, num_envs=None):
         """The carried key and `count` keys (per env, given `num_envs`) for the scene's parts.
 
-        A deterministic scene (`stochastic` False) gets `None` and the key is carried
-        unchanged: its starts come from NumPy here, so it needs no key work at all.
+        A deterministic scene carries no key (`None`, see `SplitScene.key`).
         """
-        if not scene.stochastic:
+        if key is None:
             return key, (None,) * count
         key, *parts = jr.split(key, count + 1)
         if num_envs is not None:
@@ -101,41 +121,35 @@ def _functions(treedef, static):
         return observation.astype(jnp.float32)
 
     @jax.jit
-    def step(leaves, y, steps, action, key):
-        scene = scene_of(leaves)
+    def step(parameters, y, steps, action, key):
+        scene = scene_of(parameters)
         key, (step_key, observation_key) = split(scene, key, 2)
         next_y, reward, terminated, info = transition(scene, y, steps, action, step_key)
         observation = observe_one(scene, next_y, steps + 1, observation_key)
         observation, terminated, info = guard_observation(
             scene, y, steps, observation, terminated, info, observation_key
         )
-        # The next state with, appended, the reward, the flag and the solver info: one
-        # transfer to the host instead of five.
-        outcome = jnp.concatenate(
-            [
-                next_y,
-                jnp.stack(
-                    [x.astype(next_y.dtype) for x in (reward, terminated, info["solver_ok"], info["solver_steps"])]
-                ),
-            ]
-        )
-        return outcome, observation, key
+        # One array for the host: the next state, the (float32) observation, the reward,
+        # the flag and the solver info.
+        flags = (reward, terminated, info["solver_ok"], info["solver_steps"])
+        flags = jnp.stack([jnp.astype(x, next_y.dtype) for x in flags])
+        return jnp.concatenate([next_y, observation.astype(next_y.dtype), flags]), key
 
     @jax.jit
-    def observe(leaves, y, steps, key):
-        scene = scene_of(leaves)
+    def observe(parameters, y, steps, key):
+        scene = scene_of(parameters)
         key, (observation_key,) = split(scene, key, 1)
         return observe_one(scene, y, steps, observation_key), key
 
     @jax.jit
-    def vector_step(leaves, y, steps, action, key, reset_mask, reset_y, max_episode_steps):
+    def vector_step(parameters, y, steps, action, key, reset_mask, reset_y, max_episode_steps):
         """All envs step; then those whose episode ended at the previous step restart.
 
         Gymnasium's next-step autoreset: a restarted env (`reset_mask`) continues from
         `reset_y` and returns its fresh observation, reward 0, terminated and truncated
         False. One compilation serves every time limit and every pattern of restarts.
         """
-        scene = scene_of(leaves)
+        scene = scene_of(parameters)
         key, (step_keys, observation_keys) = split(scene, key, 2, num_envs=y.shape[0])
         next_y, reward, terminated, info = jax.vmap(transition, in_axes=(None, 0, 0, 0, 0))(
             scene, y, steps, action, step_keys
@@ -154,21 +168,15 @@ def _functions(treedef, static):
         observation, terminated, info = jax.vmap(guard_observation, in_axes=(None, 0, 0, 0, 0, 0, 0))(
             scene, previous_y, previous_steps, observation, terminated, info, observation_keys
         )
-        # One array for everything per env but the observation: one transfer to the host.
-        outcome = jnp.stack(
-            [
-                reward.astype(next_y.dtype),
-                terminated.astype(next_y.dtype),
-                truncated.astype(next_y.dtype),
-                info["solver_ok"].astype(next_y.dtype),
-                info["solver_steps"].astype(next_y.dtype),
-            ]
-        )
+        # One array for the host besides the observation: the reward, the flags and the
+        # solver info, one row each (rows of it are contiguous arrays on the host).
+        flags = (reward, terminated, truncated, info["solver_ok"], info["solver_steps"])
+        outcome = jnp.stack([jnp.astype(x, next_y.dtype) for x in flags])
         return next_y, steps, observation, outcome, key
 
     @jax.jit
-    def vector_observe(leaves, y, steps, key):
-        scene = scene_of(leaves)
+    def vector_observe(parameters, y, steps, key):
+        scene = scene_of(parameters)
         key, (observation_keys,) = split(scene, key, 1, num_envs=y.shape[0])
         observation = jax.vmap(observe_one, in_axes=(None, 0, 0, 0))(scene, y, steps, observation_keys)
         return observation, key

@@ -4,18 +4,12 @@ from typing import Any, SupportsFloat
 
 import gymnasium
 import jax
-import jax.random as jr
 import numpy as np
 
 from . import _render
 from ._compiled import SplitScene, build_scene, float64
 from ._spaces import to_gymnasium_space
 from ._specs import GymSpec
-
-
-def _key(seed: int) -> jax.Array:
-    with float64():
-        return jr.key(int(seed) % 2**32)
 
 
 class GymnasiumEnv(gymnasium.Env):
@@ -58,7 +52,7 @@ class GymnasiumEnv(gymnasium.Env):
         self._state: np.ndarray | None = None
         self._steps = 0
         self._last_action: np.ndarray | None = None
-        self._jax_key = _key(0)
+        self._jax_key = self._split.key(0)
         self._warm_up()
 
     @property
@@ -85,8 +79,8 @@ class GymnasiumEnv(gymnasium.Env):
         y = self._gym_spec.initial_state(np.random.default_rng(0), None, 1)[:, 0]
         action = self._action(self._zero_action())
         with float64():
-            jax.block_until_ready(self._split.step(self._split.leaves, y, np.int64(0), action, self._jax_key))
-            jax.block_until_ready(self._split.observe(self._split.leaves, y, np.int64(0), self._jax_key))
+            jax.block_until_ready(self._split.step(self._split.parameters, y, np.int64(0), action, self._jax_key))
+            jax.block_until_ready(self._split.observe(self._split.parameters, y, np.int64(0), self._jax_key))
 
     def _zero_action(self):
         if isinstance(self.action_space, gymnasium.spaces.Discrete):
@@ -105,13 +99,13 @@ class GymnasiumEnv(gymnasium.Env):
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
         if seed is not None:
-            self._jax_key = _key(seed)
+            self._jax_key = self._split.key(seed)
         self.state = self._gym_spec.initial_state(self.np_random, options, 1)[:, 0]
         self._steps = 0
         self._last_action = None
         with float64():
             observation, self._jax_key = self._split.observe(
-                self._split.leaves, self._state, np.int64(0), self._jax_key
+                self._split.parameters, self._state, np.int64(0), self._jax_key
             )
             observation = np.array(observation)
         if self.render_mode == "human":
@@ -122,20 +116,22 @@ class GymnasiumEnv(gymnasium.Env):
         action = self._action(action)
         assert self._state is not None, "Call reset before using step method."
         with float64():
-            outcome, observation, self._jax_key = self._split.step(
-                self._split.leaves, self._state, np.int64(self._steps), action, self._jax_key
+            outcome, self._jax_key = self._split.step(
+                self._split.parameters, self._state, np.int64(self._steps), action, self._jax_key
             )
         # np.asarray, not jax.device_get: the latter costs far more for arrays this small.
-        outcome, observation = np.asarray(outcome), np.asarray(observation)
-        n = self._state.shape[0]
-        reward, terminated, solver_ok, solver_steps = outcome[n:]
+        outcome = np.asarray(outcome)
+        n, m = self._state.shape[0], self.observation_space.shape[0]
+        # The observation was computed in float32; the float64 round trip is exact.
+        observation = outcome[n : n + m].astype(np.float32)
+        reward, terminated, solver_ok, solver_steps = outcome[n + m :]
         self._state = np.array(outcome[:n])
         self._steps += 1
         self._last_action = action
         if self.render_mode == "human":
             self.render()
         info = {"solver_ok": bool(solver_ok), "solver_steps": int(solver_steps)}
-        return np.array(observation), float(reward), bool(terminated), False, info
+        return observation, float(reward), bool(terminated), False, info
 
     def render(self):
         if self.render_mode is None:
