@@ -7,8 +7,9 @@ episode ends:
 - the layer's compiled step alone (`unwrapped._split.step` + `jax.device_get`), to split
   the layer's Python bookkeeping from the jitted call;
 - the JAX floor: one bare `jax.jit` function that takes the same arrays as the layer's
-  compiled step (parameter leaves, float64 state, step count, action, key) and returns
-  arrays of the same shapes and dtypes without computing anything, fetched with
+  compiled step (packed parameters, float64 state, step count, action, and a key for a
+  stochastic scene) and returns arrays of the same shapes and dtypes (from
+  `jax.eval_shape` of the compiled step) without computing anything, fetched with
   `jax.device_get` (what any layer must at least do per step);
 - Gymnasium's numpy `CartPole-v1` through `gymnasium.make` and unwrapped.
 Vector envs at N (default 1024): `make_vec("lerax_like/CartPole-v1", vectorization_mode=
@@ -75,12 +76,23 @@ def compiled_stepper(env, actions):
         with float64():
             for action in actions:
                 start = time.perf_counter()
-                *outputs, key = split.step(split.leaves, y, np.int64(0), np.int64(action), key)
+                *outputs, key = split.step(split.parameters, y, np.int64(0), np.int64(action), key)
                 jax.device_get(outputs)
                 times.append(time.perf_counter() - start)
         return statistics.median(times)
 
     return block
+
+
+def _bare(shapes):
+    """A jitted function of any arguments returning zeros of `shapes` (a `jax.eval_shape` result)."""
+
+    @jax.jit
+    def bare(*arguments):
+        del arguments
+        return jax.tree.map(lambda shape: jnp.zeros(shape.shape, shape.dtype), shapes)
+
+    return bare
 
 
 def floor_stepper(env, actions):
@@ -91,14 +103,10 @@ def floor_stepper(env, actions):
     y = np.array(unwrapped.state)
     key = unwrapped._jax_key
 
-    @jax.jit
-    def bare(leaves, y, steps, action, key):
-        del leaves, action
-        info = {"solver_ok": steps >= 0, "solver_steps": steps.astype(jnp.int32)}
-        return y, y.astype(jnp.float32), y[0], steps < 0, info, key
-
     with float64():
-        jax.block_until_ready(bare(split.leaves, y, np.int64(0), np.int64(0), key))
+        shapes = jax.eval_shape(split.step, split.parameters, y, np.int64(0), np.int64(0), key)
+        bare = _bare(shapes)
+        jax.block_until_ready(bare(split.parameters, y, np.int64(0), np.int64(0), key))
 
     def block():
         nonlocal key
@@ -106,7 +114,7 @@ def floor_stepper(env, actions):
         with float64():
             for action in actions:
                 start = time.perf_counter()
-                *outputs, key = bare(split.leaves, y, np.int64(0), np.int64(action), key)
+                *outputs, key = bare(split.parameters, y, np.int64(0), np.int64(action), key)
                 jax.device_get(outputs)
                 times.append(time.perf_counter() - start)
         return statistics.median(times)
@@ -139,24 +147,19 @@ def vector_floor_stepper(env, num_steps):
     rng = np.random.default_rng(0)
     num_envs = env.num_envs
 
-    @jax.jit
-    def bare(leaves, y, steps, action, key, reset_mask, reset_y, max_episode_steps):
-        del leaves, action, reset_y, max_episode_steps
-        info = {"solver_ok": reset_mask, "solver_steps": steps.astype(jnp.int32)}
-        return y, steps, y.astype(jnp.float32), y[:, 0], reset_mask, reset_mask, info, key
+    with float64():
+        arguments = (split.parameters, y, steps, np.zeros(num_envs, dtype=np.int64), key, reset_mask, y, time_limit)
+        bare = _bare(jax.eval_shape(split.vector_step, *arguments))
+        jax.block_until_ready(bare(*arguments))
 
     def block():
         start = time.perf_counter()
         with float64():
             for _ in range(num_steps):
                 actions = rng.integers(0, 2, num_envs)
-                _, _, *outputs, _ = bare(split.leaves, y, steps, actions, key, reset_mask, y, time_limit)
+                _, _, *outputs, _ = bare(split.parameters, y, steps, actions, key, reset_mask, y, time_limit)
                 jax.device_get(outputs)
         return time.perf_counter() - start
-
-    with float64():
-        jax.block_until_ready(bare(split.leaves, y, steps, np.zeros(num_envs, dtype=np.int64), key, reset_mask, y,
-                                   time_limit))
     return block
 
 
@@ -175,7 +178,7 @@ def vector_compiled_stepper(env, num_steps):
         with float64():
             for _ in range(num_steps):
                 actions = rng.integers(0, 2, num_envs)
-                _, _, *outputs, _ = split.vector_step(split.leaves, y, steps, actions, key, reset_mask, y, time_limit)
+                _, _, *outputs, _ = split.vector_step(split.parameters, y, steps, actions, key, reset_mask, y, time_limit)
                 jax.device_get(outputs)
         return time.perf_counter() - start
 

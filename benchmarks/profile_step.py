@@ -68,7 +68,7 @@ def variants(env):
         return new_state, jnp.ones(())
 
     def hand_step_lerax_keys(state, action, key):
-        # As above, with the key work `AbstractEnv.step` did before `_purpose_keys`: split
+        # As above, with the key work of `AbstractEnv.step`'s first version: split
         # in five, then `reset` split in two again.
         _, _, _, _, reset_key = jr.split(key, 5)
         y = hand_euler(env, state.y, env.physical_input(action))
@@ -76,6 +76,17 @@ def variants(env):
         done = env.terminal(next_state, key=None) | env.truncate(next_state)
         initial_key, _ = jr.split(reset_key)
         fresh = env.initial(key=initial_key)
+        new_state = jax.tree.map(lambda a, b: jnp.where(done, a, b), fresh, next_state)
+        return new_state, jnp.ones(())
+
+    def hand_step_one_hash_start(state, action, key):
+        # As above, with the start drawn as `AbstractEnv.step` now draws it for a
+        # deterministic scene: the step's key goes to `initial`, which spends one hash
+        # on four 16-bit coordinates (`lerax_like._random.uniform`).
+        y = hand_euler(env, state.y, env.physical_input(action))
+        next_state = EnvState(y=y, steps=state.steps + 1)
+        done = env.terminal(next_state, key=None) | env.truncate(next_state)
+        fresh = env.initial(key=key)
         new_state = jax.tree.map(lambda a, b: jnp.where(done, a, b), fresh, next_state)
         return new_state, jnp.ones(())
 
@@ -89,7 +100,8 @@ def variants(env):
         "hand step, constant reset": (hand_step_no_reset, initial),
         "hand step, gymnax key work": (hand_step_with_reset, initial),
         "hand step, split(5)+split(2) keys": (hand_step_lerax_keys, initial),
-        "env.step (Euler, fold_in keys)": (full_step, initial),
+        "hand step, one-hash start": (hand_step_one_hash_start, initial),
+        "env.step (Euler)": (full_step, initial),
     }
 
 

@@ -263,9 +263,15 @@ class Integrator(eqx.Module):
         return self._finish(solution.ys[-1], solved, steps, rejected, projection)
 
     def _step_once(self, term, y0, u, dt, projection):
+        solver = self.solver
+        if isinstance(solver, diffrax.AbstractRungeKutta) and solver.scan_kind is None:
+            # As `diffeqsolve` sets it for the adjoint: a Runge-Kutta method's stage loop
+            # is by default checkpointed, which forward-mode autodiff cannot pass through.
+            kind = "lax" if isinstance(self.adjoint, diffrax.ForwardMode) else "bounded"
+            solver = eqx.tree_at(lambda s: s.scan_kind, solver, kind, is_leaf=lambda x: x is None)
         t0 = jnp.zeros((), dtype=y0.dtype)
-        solver_state = self.solver.init(term, t0, dt, y0, u)
-        y1, _, _, _, result = self.solver.step(term, t0, dt, y0, u, solver_state, made_jump=False)
+        solver_state = solver.init(term, t0, dt, y0, u)
+        y1, _, _, _, result = solver.step(term, t0, dt, y0, u, solver_state, made_jump=False)
         # Counts as `diffeqsolve` reports them: one accepted step, none rejected.
         return self._finish(y1, result == diffrax.RESULTS.successful, jnp.asarray(1), jnp.asarray(0), projection)
 

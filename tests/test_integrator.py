@@ -112,3 +112,17 @@ def test_other_fixed_step_settings_still_go_through_diffeqsolve(integrator, step
         dt0=scene.dt / steps, y0=y0, args=u, max_steps=steps,
     ).ys[-1]
     assert tree_allclose(y1, reference, rtol=1e-14, atol=1e-15)
+
+
+@pytest.mark.parametrize("preset", ["rk4", "tsit5"])
+def test_forward_mode_passes_through_one_runge_kutta_step(preset):
+    # diffeqsolve switches a Runge-Kutta method's checkpointed stage loop to a plain one
+    # for `ForwardMode`; the direct step must too, or `jax.jacfwd` fails.
+    scene = ll.CartPoleContinuous()
+    y0 = jnp.array([0.3, -0.2, 0.1, 0.4])
+    u = scene.physical_input(jnp.array([0.7]))
+    forward = eqx.tree_at(lambda i: i.adjoint, _integrator(preset), diffrax.ForwardMode())
+
+    jacobian = jax.jit(jax.jacfwd(lambda y: _integrate(forward, scene, y, u)[0]))(y0)
+    reference = jax.jit(jax.jacrev(lambda y: _reference(forward, scene, y, u)))(y0)
+    assert tree_allclose(jacobian, reference, rtol=1e-12, atol=1e-14)
