@@ -96,7 +96,12 @@ def test_energy_drift_shrinks_at_the_order(study):
         # Smaller steps (rows sorted by dt, ascending) drift less.
         assert np.all(np.diff(drifts) > 0), (solver, name, drifts)
         slope = fitted_slope(step_sizes, drifts, low=1e-13)
-        assert abs(slope - ORDERS[solver]) < 0.3, (solver, name, slope, drifts)
+        # Tsit5's energy drift still falls faster than h**5 at the smallest steps whose
+        # drift stays above the reference's floor (6e-14 at h = 1/320): slopes of 5.1 to
+        # 5.3 over seeds 0 and 1 and batches of 2 and 8, where its momentum drift gives
+        # 4.98 to 5.01. It must not fall slower than its order, and not much faster.
+        excess = 0.5 if (solver, name) == ("tsit5", "energy_drift") else 0.3
+        assert ORDERS[solver] - 0.3 < slope < ORDERS[solver] + excess, (solver, name, slope, drifts)
 
 
 def test_reference_drift_is_at_roundoff(study):
