@@ -1,6 +1,7 @@
 """The `lerax-like` command: argument parsing only; the work is in `lerax_like.analysis`.
 
     lerax-like study CartPole [--quick] [--out DIR]
+    lerax-like gradients CartPole [--quick] [--out DIR] [--no-plot]
     lerax-like rollout CartPole [--steps N] [--seed S]
 """
 
@@ -36,6 +37,36 @@ def _study(arguments) -> int:
     return 0
 
 
+def _gradients(arguments) -> int:
+    from .analysis.gradient_accuracy import GradientStudyConfig, run_gradient_study
+    from .analysis.report import format_gradient_table, write_gradient_study
+
+    overrides = {"mode": arguments.mode}
+    if arguments.seed is not None:
+        overrides["seed"] = arguments.seed
+    try:
+        config = GradientStudyConfig.default(arguments.scene, quick=arguments.quick, **overrides)
+    except ValueError as error:
+        print(f"lerax-like gradients: {error}", file=sys.stderr)
+        return 2
+    start = time.perf_counter()
+    result = run_gradient_study(config)
+    elapsed = time.perf_counter() - start
+    paths = write_gradient_study(result, arguments.out, plot=not arguments.no_plot, study_seconds=elapsed)
+    reference = result.record["reference"]
+    print(f"{config.scene}: gradient of {config.cost.__name__} over {config.horizon} env steps with respect to "
+          f"{', '.join(result.record['parameter_names'])} ({config.mode} mode); error relative to Dopri8 at "
+          f"rtol {reference['rtol']:g} (its floor {reference['floor']:.1e})")
+    print(format_gradient_table(result.rows))
+    print()
+    print(f"Orders of the gradient error (fixed steps; errors between the floor and {config.fit_ceiling:g}):")
+    for entry in result.convergence_orders():
+        print(f"{entry['solver']:<9} order {entry['order']:.2f} ({entry['points']} points)")
+    print()
+    print(f"study took {elapsed:.1f} s; wrote " + ", ".join(paths.values()))
+    return 0
+
+
 def _rollout(arguments) -> int:
     from .analysis.rollout_check import format_rollouts, preset_rollouts
 
@@ -62,6 +93,18 @@ def main(argv: list[str] | None = None) -> int:
     study.add_argument("--no-progress", action="store_true", help="no progress bar")
     study.add_argument("--no-plot", action="store_true", help="skip the PNG (no matplotlib needed)")
     study.set_defaults(run=_study)
+
+    gradients = commands.add_parser(
+        "gradients", help="gradient error against a tight reference vs run time, per solver and step"
+    )
+    gradients.add_argument("scene", choices=sorted(SCENES), help="a scene that does not clip or wrap its state")
+    gradients.add_argument("--quick", action="store_true", help="a small study, well under a minute on 2 cores")
+    gradients.add_argument("--out", default="lerax_like_gradients", help="folder for CSV, PNG and JSON (default: %(default)s)")
+    gradients.add_argument("--seed", type=int, default=None, help="seed of the initial state and actions (default 0)")
+    gradients.add_argument("--mode", choices=("forward", "reverse"), default="forward",
+                           help="jax.jacfwd or jax.grad (default: %(default)s, the cheaper for a few parameters)")
+    gradients.add_argument("--no-plot", action="store_true", help="skip the PNG (no matplotlib needed)")
+    gradients.set_defaults(run=_gradients)
 
     rollout = commands.add_parser("rollout", help="one episode with each solver preset, error and wall time")
     rollout.add_argument("scene", choices=sorted(SCENES))

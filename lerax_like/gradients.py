@@ -11,15 +11,26 @@ env's `Integrator`. Three are useful:
 - `"forward"`, `diffrax.ForwardMode()`: forward mode through the solver's steps, for
   `jax.jacfwd` / `jax.jvp`. Also the exact derivative of the discrete solution; cheap
   when there are few inputs (a force, a few parameters) and many outputs.
-- `"backsolve"`, `diffrax.BacksolveAdjoint()`: the continuous adjoint ODE, solved
-  backwards in time with the same solver. It is an *approximation* of the gradient of the
-  discrete solution (it approximates the continuous system's gradient instead), with an
-  error of the order of the solver's error; it reconstructs the state backwards, which is
-  unstable for stiff or dissipative systems and then returns NaN or garbage.
+- `"backsolve"`, `diffrax.BacksolveAdjoint(throw=True)`: the continuous adjoint ODE,
+  solved backwards in time with the same solver. It is an *approximation* of the
+  gradient of the discrete solution (it approximates the continuous system's gradient
+  instead), with an error of the order of the solver's error. It reconstructs the state
+  backwards in time, which is unstable where the dynamics contract fast (stiff or
+  strongly dissipative systems): the backward solve then needs far more steps than the
+  forward one and exhausts `max_steps`. The env solves with `throw=False` (a failure is
+  reported in `info["solver_ok"]`, not raised), and a plain `diffrax.BacksolveAdjoint()`
+  passes that on to its backward solve, whose failure then yields a finite, wrong
+  gradient that nothing reports: 900 times too large on one step of
+  `VanDerPol(mu=1000, dt=1)` with Kvaerno5 (`tests/test_gradients.py`). The named
+  adjoint gives the backward solve `throw=True`, so that this failure raises; a plain
+  one warns (`warn_if_silent`). A backward solve that succeeds can still drift from the
+  forward trajectory (README, Gradients): prefer `"checkpoint"` on stiff dynamics.
 
 Pick one with `with_adjoint(env, "forward")`, or build the scene with an `Integrator`:
 `CartPoleContinuous(solver=make_integrator("tsit5", adjoint=diffrax.ForwardMode()))`.
 """
+
+import warnings
 
 import diffrax
 import equinox as eqx
@@ -38,13 +49,35 @@ def make_adjoint(adjoint: "str | diffrax.AbstractAdjoint") -> diffrax.AbstractAd
     if adjoint == "forward":
         return diffrax.ForwardMode()
     if adjoint == "backsolve":
-        return diffrax.BacksolveAdjoint()
+        # The env's solves run with throw=False, which the backward solve would inherit.
+        return diffrax.BacksolveAdjoint(throw=True)
     raise ValueError(f"adjoint must be one of {ADJOINTS} or a diffrax adjoint, got {adjoint!r}")
+
+
+def warn_if_silent(adjoint: diffrax.AbstractAdjoint) -> None:
+    """Warn about a `BacksolveAdjoint` whose backward solve would fail silently.
+
+    The env's solves run with `throw=False`; a `BacksolveAdjoint` not given `throw=True`
+    inherits it for its backward solve, whose failure (an exhausted budget, on stiff
+    dynamics) then returns a wrong gradient without a word.
+    """
+    if isinstance(adjoint, diffrax.BacksolveAdjoint) and adjoint.kwargs.get("throw") is not True:
+        warnings.warn(
+            "BacksolveAdjoint without throw=True: the env solves with throw=False (failures go to "
+            "info['solver_ok']) and the backward solve inherits it, so when the backward solve fails "
+            "(an exhausted max_steps, typical on stiff dynamics) the gradient is wrong and nothing says so. "
+            "Use make_adjoint('backsolve') or diffrax.BacksolveAdjoint(throw=True).",
+            UserWarning,
+            stacklevel=3,
+        )
 
 
 def with_adjoint(env, adjoint: "str | diffrax.AbstractAdjoint"):
     """`env` with its integrator's adjoint replaced (a name from `ADJOINTS` or a diffrax adjoint).
 
     Works on any env (or other module) with an `integrator` field; returns a new env.
+    Warns on a `BacksolveAdjoint` that would fail silently (see `warn_if_silent`).
     """
-    return eqx.tree_at(lambda e: e.integrator.adjoint, env, make_adjoint(adjoint))
+    adjoint = make_adjoint(adjoint)
+    warn_if_silent(adjoint)
+    return eqx.tree_at(lambda e: e.integrator.adjoint, env, adjoint)

@@ -20,6 +20,7 @@ from diffrax._root_finder import use_stepsize_tol
 from ._checks import check_count
 from ._semi_implicit import ProjectedODETerm as ProjectedODETerm, SemiImplicitEuler as SemiImplicitEuler
 from ._types import Array, BoolScalar, Input, IntScalar, ScalarLike, State
+from .gradients import warn_if_silent
 
 
 _rk4_tableau = diffrax.ButcherTableau(
@@ -189,6 +190,7 @@ class Integrator(eqx.Module):
         self.solver = solver
         self.stepsize_controller = stepsize_controller
         self.adjoint = diffrax.RecursiveCheckpointAdjoint() if adjoint is None else adjoint
+        warn_if_silent(self.adjoint)
         self.max_steps = max_steps
         self.substeps = substeps
 

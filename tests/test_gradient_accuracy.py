@@ -1,10 +1,15 @@
-"""The gradient of the discretised env against the continuous system's."""
+"""The gradient of the discretised env against the continuous system's, and `lerax-like gradients`."""
+
+import csv
+import json
 
 import jax.numpy as jnp
 import numpy as np
 
 import lerax_like as ll
+from lerax_like.analysis import GRADIENT_CSV_COLUMNS, gradient_scenes
 from lerax_like.analysis.gradient_accuracy import trajectory_sensitivity, with_integrator
+from lerax_like.cli import main
 
 
 INF = float("inf")
@@ -28,3 +33,35 @@ def test_euler_gradient_is_first_order_and_can_have_the_wrong_sign():
     # opposite sign under Gymnasium's Euler at dt = 0.02, both of order 1.
     assert euler[92] * reference[92] < 0
     assert min(abs(euler[92]), abs(reference[92])) > 1.0
+
+
+def test_quick_gradient_study_writes_rows_at_the_solvers_orders(tmp_path):
+    assert main(["gradients", "CartPole", "--quick", "--out", str(tmp_path), "--no-plot"]) == 0
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["CartPole_gradients.csv", "CartPole_gradients.json"]
+    with open(tmp_path / "CartPole_gradients.csv", newline="") as file:
+        rows = list(csv.DictReader(file))
+    assert set(rows[0]) == set(GRADIENT_CSV_COLUMNS)
+    assert all(row["solver_ok"] == "True" and float(row["seconds"]) > 0 for row in rows)
+    record = json.loads((tmp_path / "CartPole_gradients.json").read_text())
+    assert {"pole_mass", "half_length"} <= set(record["parameter_names"])
+    assert len(record["reference"]["gradient"]) == len(record["parameter_names"])
+    assert record["reference"]["floor"] < 1e-10
+
+    def fixed(solver):
+        line = sorted((float(r["dt"]), float(r["error"])) for r in rows if r["solver"] == solver and r["dt"])
+        return np.array(line).T
+
+    euler_dt, euler_error = fixed("euler")
+    rk4_dt, rk4_error = fixed("rk4")
+    # Gymnasium's Euler step has a gradient error of order 1e-1; RK4 at a quarter of it,
+    # far less. Each error falls with the step at the method's order (log-log slope).
+    assert rk4_error[0] < 1e-4 * euler_error[-1]
+    assert 0.6 < np.polyfit(np.log(euler_dt), np.log(euler_error), 1)[0] < 1.5
+    assert 3.5 < np.polyfit(np.log(rk4_dt), np.log(rk4_error), 1)[0] < 4.5
+
+
+def test_gradient_study_refuses_scenes_that_clip_their_state(capsys):
+    assert main(["gradients", "Pendulum", "--quick", "--no-plot"]) == 2
+    message = capsys.readouterr().err
+    assert "Pendulum clips or wraps its state" in message and "CartPole, CartPoleContinuous" in message
+    assert "Pendulum" not in gradient_scenes() and "VanDerPol" in gradient_scenes()

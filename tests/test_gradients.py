@@ -7,6 +7,7 @@ differentiable: at a termination and at an action clip.
 """
 
 import diffrax
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import jax.random as jr
@@ -200,3 +201,63 @@ def test_action_clip_has_no_derivative_at_the_limit():
     np.testing.assert_allclose(report.leaves[0].finite_difference, 0.5 * below, rtol=1e-6)
     # Past the limit the gradient is exactly zero: no signal for a learner.
     assert float(jax.grad(final_x_dot)(jnp.asarray(1.5))) == 0.0
+
+
+# ---- The continuous adjoint where the dynamics are stiff ----
+#
+# One env step of dt = 1 with Kvaerno5, the stiff preset, from (2, 0): on the slow branch
+# of the limit cycle, where the fast direction contracts at the rate mu (x^2 - 1) = 3 mu.
+# BacksolveAdjoint reconstructs the state backwards in time, where that direction expands
+# at the same rate: harmless at mu = 1, at mu = 1000 the backward solve exhausts its budget.
+
+
+def _van_der_pol_final_state(mu, y0, env):
+    """`x + v` after one env step from `y0`, with `mu` as the env's `mu`, and the solves' success."""
+    env = eqx.tree_at(lambda e: e.dynamics.mu, env, mu)
+    ys, infos = ll.rollout(env, EnvState(y=y0, steps=jnp.zeros((), dtype=int)), jnp.zeros((1, 1)), key=jr.key(0))
+    return jnp.sum(ys[-1]), jnp.all(infos["solver_ok"])
+
+
+def _both_cases(tree, env):
+    # mu = 1 and mu = 1000 as one vmapped batch: one compilation serves both (Kvaerno5's
+    # gradients take 10 s and more to compile), and each case has its own inputs, so the
+    # gradient of the sum holds each case's gradient.
+    values, solver_ok = jax.vmap(_van_der_pol_final_state, in_axes=(0, 0, None))(tree["mu"], tree["y0"], env)
+    return jnp.sum(values), solver_ok
+
+
+VAN_DER_POL_CASES = {"mu": jnp.array([1.0, 1000.0]), "y0": jnp.array([[2.0, 0.0], [2.0, 0.0]])}
+
+
+def test_plain_backsolve_adjoint_is_silently_wrong_on_stiff_van_der_pol():
+    env = ll.VanDerPol(dt=1.0, solver="kvaerno5")
+    # The default adjoint agrees with finite differences in both cases.
+    report = gradcheck(lambda tree: _both_cases(tree, env)[0], VAN_DER_POL_CASES)
+    assert report.passed(ADAPTIVE_RTOL), str(report)
+    with pytest.warns(UserWarning, match="without throw=True"):
+        plain = with_adjoint(env, diffrax.BacksolveAdjoint())
+    gradient, solver_ok = eqx.filter_jit(jax.grad(_both_cases, has_aux=True))(VAN_DER_POL_CASES, plain)
+    assert bool(jnp.all(solver_ok))  # every forward solve reports success
+    relative_error = [
+        max(
+            np.linalg.norm(np.asarray(gradient[name][case]) - report[f"['{name}']"].finite_difference[case])
+            / np.linalg.norm(report[f"['{name}']"].finite_difference[case])
+            for name in ("mu", "y0")
+        )
+        for case in (0, 1)
+    ]
+    # mu = 1: the continuous adjoint approximates the gradient to about the solver's tolerance.
+    assert relative_error[0] < ADAPTIVE_RTOL, relative_error
+    # mu = 1000: the backward solve ran out of steps, which nothing reports; the gradient
+    # is finite and wrong by orders of magnitude.
+    assert all(bool(jnp.all(jnp.isfinite(leaf))) for leaf in jax.tree.leaves(gradient))
+    assert relative_error[1] > 10, relative_error
+
+
+def test_named_backsolve_adjoint_raises_on_stiff_van_der_pol():
+    # make_adjoint("backsolve") gives its backward solve throw=True: the exhausted budget
+    # of the stiff case is raised instead of passed off as a gradient.
+    env = with_adjoint(ll.VanDerPol(mu=1000.0, dt=1.0, solver="kvaerno5"), "backsolve")
+    gradient = eqx.filter_jit(jax.grad(_van_der_pol_final_state, has_aux=True))
+    with pytest.raises(Exception, match="maximum number of solver steps"):
+        jax.block_until_ready(gradient(env.dynamics.mu, jnp.array([2.0, 0.0]), env))

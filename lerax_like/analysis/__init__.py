@@ -7,14 +7,26 @@ progress bar): `pip install 'lerax_like[study]'`.
 
 from .convergence import convergence_orders as convergence_orders, fit_order as fit_order
 from .gradcheck import GradCheckReport as GradCheckReport, LeafCheck as LeafCheck, gradcheck as gradcheck
+from .gradient_accuracy import (
+    GradientStudyConfig as GradientStudyConfig,
+    default_gradient_sweeps as default_gradient_sweeps,
+    gradient_scenes as gradient_scenes,
+    gradient_work_precision as gradient_work_precision,
+    run_gradient_study as run_gradient_study,
+    sensitivity_signs as sensitivity_signs,
+)
 from .reference import reference_trajectories as reference_trajectories
 from .report import (
     CSV_COLUMNS as CSV_COLUMNS,
+    GRADIENT_CSV_COLUMNS as GRADIENT_CSV_COLUMNS,
     cheapest_at as cheapest_at,
+    format_gradient_table as format_gradient_table,
     format_table as format_table,
+    plot_gradient_work_precision as plot_gradient_work_precision,
     plot_work_precision as plot_work_precision,
     read_csv as read_csv,
     write_csv as write_csv,
+    write_gradient_study as write_gradient_study,
     write_json as write_json,
     write_study as write_study,
 )

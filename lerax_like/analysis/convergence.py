@@ -35,13 +35,14 @@ def convergence_orders(rows: Iterable[dict[str, Any]], *, ceiling: float = 1e-2)
 
     The error is fitted between `max(10 * reference floor, ROUNDOFF_FLOOR)` and
     `ceiling`; energy and momentum drifts (zero input only) between `ROUNDOFF_FLOOR` and
-    `ceiling`.
+    `ceiling`. Rows of a gradient study (no schedule, no `max_error`, no drifts) get
+    the order of their `error`, the gradient's, alone.
     """
     groups: dict[tuple[str, str, str], list[dict[str, Any]]] = {}
     for row in rows:
         if row["controller"] != "ConstantStepSize":
             continue
-        groups.setdefault((row["scene"], row["schedule"], row["solver"]), []).append(row)
+        groups.setdefault((row["scene"], row.get("schedule", ""), row["solver"]), []).append(row)
     orders = []
     for (scene, schedule, solver), group in groups.items():
         group = sorted(group, key=lambda row: row["dt"])
@@ -51,9 +52,10 @@ def convergence_orders(rows: Iterable[dict[str, Any]], *, ceiling: float = 1e-2)
         entry["order"], entry["points"] = fit_order(
             step_sizes, [row["error"] for row in group], floor=floor, ceiling=ceiling
         )
-        entry["max_error_order"], _ = fit_order(
-            step_sizes, [row["max_error"] for row in group], floor=floor, ceiling=ceiling
-        )
+        if "max_error" in group[0]:
+            entry["max_error_order"], _ = fit_order(
+                step_sizes, [row["max_error"] for row in group], floor=floor, ceiling=ceiling
+            )
         for name in ("energy_drift", "momentum_drift"):
             values = [row.get(name, math.nan) for row in group]
             if all(math.isnan(v) for v in values):

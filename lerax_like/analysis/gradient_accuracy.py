@@ -1,17 +1,21 @@
 """Gradient accuracy: how far the gradient of the discretised env is from the continuous system's.
 
-An env's gradient (with the default `RecursiveCheckpointAdjoint`) is the exact derivative
-of the *discrete* solution. That is what an optimiser of the env sees, but when the env
-stands for a physical system, the quantity of interest is the derivative of the
-continuous system: they differ by an error that shrinks with the solver's step like the
-solver's own error, and it can flip a gradient's sign. `gradient_work_precision`
-measures this error against a tight reference, beside the run time of the gradient:
-the work-precision idea applied to gradients.
+An env's gradient (with the default `RecursiveCheckpointAdjoint`, or `ForwardMode`) is
+the exact derivative of the *discrete* solution. That is what an optimiser of the env
+sees, but when the env stands for a physical system, the quantity of interest is the
+derivative of the continuous system: they differ by an error that shrinks with the
+solver's step like the solver's own error, and it can flip a gradient's sign.
+`gradient_work_precision` measures this error against a tight reference, beside the run
+time of the gradient: the work-precision idea applied to gradients. `run_gradient_study`
+does it for a scene by name (`lerax-like gradients SCENE`), and `sensitivity_signs`
+finds where a solver's sensitivity has the wrong sign along a trajectory.
 """
 
+import dataclasses
+import math
 import time
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import Any, Literal
 
 import diffrax
 import equinox as eqx
@@ -21,11 +25,18 @@ import jax.random as jr
 import numpy as np
 from jax.flatten_util import ravel_pytree
 
-from .._types import Array
+from .._checks import check_count
+from .._types import Array, BoolScalar, Float, Scalar, State
 from ..env import AbstractEnv, EnvState, rollout
 from ..gradients import with_adjoint
 from ..integrate import Integrator, make_integrator
 from .gradcheck import _selection
+from .scenes import SCENES, make_scene
+from .study import SolverSweep, StudyResult, _tolerance_pairs, environment_record
+
+
+Loss = Callable[[AbstractEnv], tuple[Scalar, BoolScalar]]
+"""A scalar loss of an env, and whether every solve behind it succeeded."""
 
 
 def with_integrator(env: AbstractEnv, integrator: Integrator) -> AbstractEnv:
@@ -33,16 +44,18 @@ def with_integrator(env: AbstractEnv, integrator: Integrator) -> AbstractEnv:
     return eqx.tree_at(lambda e: e.integrator, env, integrator)
 
 
-def reference_integrator(rtol: float = 1e-12) -> Integrator:
-    """Dopri8 at tight tolerances: the stand-in for the continuous system."""
-    return make_integrator(
-        "dopri8", diffrax.PIDController(rtol=rtol, atol=rtol * 1e-2), max_steps=100_000
-    )
+def reference_integrator(rtol: float = 1e-12, dtmax: float = math.inf) -> Integrator:
+    """Dopri8 at tight tolerances (`atol = rtol / 100`): the stand-in for the continuous system."""
+    # Tolerances and largest step as arrays, not Python floats or None: they are then
+    # traced leaves, and the reference and its floor estimate share one compilation.
+    rtol = jnp.asarray(rtol)
+    controller = diffrax.PIDController(rtol=rtol, atol=rtol * 1e-2, dtmax=jnp.asarray(dtmax))
+    return make_integrator("dopri8", controller, max_steps=100_000)
 
 
 def trajectory_sensitivity(
-    env: AbstractEnv, where: Callable[[AbstractEnv], Array], y0: Array, actions: Array
-) -> Array:
+    env: AbstractEnv, where: Callable[[AbstractEnv], Array], y0: State, actions: Array
+) -> Float[Array, "T n"]:
     """`d ys / d where(env)` along a rollout, shape `(T, n)`, by forward mode (one pass).
 
     `where(env)` must be a scalar leaf; the env's integrator gets the forward adjoint.
@@ -57,6 +70,28 @@ def trajectory_sensitivity(
     return eqx.filter_jit(jax.jacfwd(ys))(where(env))
 
 
+def mean_squared_state(ys: Float[Array, "T n"]) -> Scalar:
+    """Mean over the rollout of `|y_t|^2`: smooth in every state component."""
+    return jnp.mean(jnp.sum(ys**2, axis=-1))
+
+
+def trajectory_loss(
+    y0: State, actions: Array, cost: Callable[[Float[Array, "T n"]], Scalar] = mean_squared_state
+) -> Loss:
+    """The loss `cost(ys)` of the rollout of `actions` from `y0`, with the solves' success.
+
+    The rollout has no termination and no reset (`lerax_like.rollout`), so the loss is
+    as smooth as the dynamics and `cost` are.
+    """
+
+    def loss(env: AbstractEnv) -> tuple[Scalar, BoolScalar]:
+        state = EnvState(y=y0, steps=jnp.zeros((), dtype=int))
+        ys, infos = rollout(env, state, actions, key=jr.key(0))
+        return cost(ys), jnp.all(infos["solver_ok"])
+
+    return loss
+
+
 def _timed(fn, *args, repeats: int = 5) -> float:
     jax.block_until_ready(fn(*args))  # compile first
     times = []
@@ -67,45 +102,333 @@ def _timed(fn, *args, repeats: int = 5) -> float:
     return float(np.median(times))
 
 
+def _gradient_function(loss: Loss, mode: Literal["reverse", "forward"]):
+    """`(params, static) -> (gradient, solver_ok)`, jitted once for every integrator.
+
+    The integrator lies in `static`: its arrays (an adaptive controller's tolerances) are
+    traced, so that a tolerance sweep shares one compilation.
+    """
+    differentiate = jax.grad if mode == "reverse" else jax.jacfwd
+
+    @eqx.filter_jit
+    def gradient(params, static):
+        return differentiate(lambda p: loss(eqx.combine(p, static)), has_aux=True)(params)
+
+    return gradient
+
+
+def _integrator_setting(env: AbstractEnv, integrator: Integrator) -> dict[str, Any]:
+    controller = integrator.stepsize_controller
+    constant = not integrator.adaptive
+    return {
+        "controller": type(controller).__name__,
+        "substeps": integrator.substeps if constant else "",
+        "dt": float(env.dt) / integrator.substeps if constant else math.nan,
+        "env_dt": float(env.dt),
+        "rtol": float(getattr(controller, "rtol", math.nan)),
+        "atol": float(getattr(controller, "atol", math.nan)),
+    }
+
+
 def gradient_work_precision(
     env: AbstractEnv,
-    loss: Callable[[AbstractEnv], Array],
+    loss: Loss,
     where: Callable[[AbstractEnv], Any],
     integrators: Sequence[tuple[str, Integrator]],
     *,
-    reference: Integrator | None = None,
+    mode: Literal["reverse", "forward"] = "reverse",
+    reference_rtol: float = 1e-12,
     repeats: int = 5,
-) -> list[dict[str, Any]]:
-    """Error and run time of `grad(loss)` with respect to `where(env)`, per integrator.
+) -> tuple[list[dict[str, Any]], dict[str, Any]]:
+    """Error and run time of the gradient of `loss` with respect to `where(env)`, per integrator.
 
-    The error is `|g - g_ref| / |g_ref|` (2-norm over all selected leaves) with `g_ref`
-    computed with `reference` (default `reference_integrator()`). Returns one row per
-    integrator: `{"label", "steps_per_env_step", "rtol", "error", "seconds", "gradient"}`.
+    - `loss(env)` returns the loss and whether all its solves succeeded (`trajectory_loss`).
+    - `mode`: `"reverse"` times `jax.grad` with each integrator's own adjoint (the default
+      `RecursiveCheckpointAdjoint`, or one under study such as `BacksolveAdjoint`);
+      `"forward"` times `jax.jacfwd` with `ForwardMode`. Both checkpoint and forward give
+      the exact derivative of the discrete solution; forward is cheaper for a handful of
+      parameters.
+
+    The error is `|g - g_ref| / |g_ref|` (2-norm over all selected leaves), `NaN` where a
+    solve failed. `g_ref` is computed with `reference_integrator(reference_rtol)` by
+    forward mode (exact for the discrete reference solution, and its compilation is the
+    cheaper); its floor estimates its own error.
+
+    Returns the rows, one per integrator (`label`, `controller`, `substeps`, `dt` (the
+    solver's step, fixed-step rows), `env_dt`, `rtol`, `atol`, `error`, `seconds` (median
+    of `repeats` after a compiling run), `solver_ok`, `gradient`), and the reference
+    (`gradient`, `rtol`, `floor`).
     """
-    reference = reference_integrator() if reference is None else reference
+    if mode not in ("reverse", "forward"):
+        raise ValueError(f"mode must be 'reverse' or 'forward', got {mode!r}")
 
-    def gradient_with(integrator):
+    def parts(integrator, adjoint):
         env_i = with_integrator(env, integrator)
-        params, static = eqx.partition(env_i, _selection(env_i, where))
-        fn = eqx.filter_jit(jax.grad(lambda p: loss(eqx.combine(p, static))))
-        return fn, params
+        if adjoint is not None:
+            env_i = with_adjoint(env_i, adjoint)
+        return eqx.partition(env_i, _selection(env_i, where))
 
-    fn, params = gradient_with(reference)
-    g_ref, _ = ravel_pytree(fn(params))
+    reference_gradient = _gradient_function(loss, "forward")
+    g_ref, ok = reference_gradient(*parts(reference_integrator(reference_rtol), "forward"))
+    # The floor: against a second reference at ten times the tolerance and at most a
+    # quarter of the env step per step. Where the step bound binds (Dopri8 at tight
+    # tolerances still takes one step per short env step) the second is the finer and
+    # the difference is the reference's own error; where it does not, the second is
+    # the coarser, and the difference overestimates it.
+    check = reference_integrator(10 * reference_rtol, dtmax=float(env.dt) / 4)
+    g_check, ok_check = reference_gradient(*parts(check, "forward"))
+    if not (bool(ok) and bool(ok_check)):
+        raise RuntimeError(f"the reference solve (Dopri8, rtol {reference_rtol:g}) failed: raise its budget or loosen it")
+    g_ref, g_check = ravel_pytree(g_ref)[0], ravel_pytree(g_check)[0]
+    scale = jnp.linalg.norm(g_ref)
+    reference = {
+        "gradient": np.asarray(g_ref).tolist(),
+        "rtol": reference_rtol,
+        "floor": float(jnp.linalg.norm(g_check - g_ref) / scale),
+    }
+
+    gradient = reference_gradient if mode == "forward" else _gradient_function(loss, mode)
     rows = []
     for label, integrator in integrators:
-        fn, params = gradient_with(integrator)
-        g, _ = ravel_pytree(fn(params))
+        params, static = parts(integrator, "forward" if mode == "forward" else None)
+        g, ok = gradient(params, static)
+        g = ravel_pytree(g)[0]
         rows.append(
             {
                 "label": label,
-                "steps_per_env_step": integrator.substeps,
-                "rtol": float(getattr(integrator.stepsize_controller, "rtol", float("nan"))),
-                "error": float(jnp.linalg.norm(g - g_ref) / jnp.linalg.norm(g_ref)),
-                "seconds": _timed(fn, params, repeats=repeats),
+                **_integrator_setting(env, integrator),
+                "error": float(jnp.linalg.norm(g - g_ref) / scale) if bool(ok) else math.nan,
+                "seconds": _timed(gradient, params, static, repeats=repeats),
+                "solver_ok": bool(ok),
                 "gradient": np.asarray(g).tolist(),
             }
         )
-    rows.append({"label": "reference", "gradient": np.asarray(g_ref).tolist()})
-    return rows
+    return rows, reference
 
+
+def _scene_projects(name: str) -> bool:
+    """Whether the scene clips or wraps its state after each step (a `project` override)."""
+    return SCENES[name].project is not AbstractEnv.project
+
+
+def gradient_scenes() -> tuple[str, ...]:
+    """Scenes whose rollout loss is smooth, which `run_gradient_study` takes.
+
+    Left out are scenes that clip or wrap their state after every step (Gymnasium's speed
+    limits and walls, angle wrapping): where a clip is active the loss has a kink, and the
+    gradient there is no derivative of the continuous system to converge to.
+    """
+    return tuple(name for name in SCENES if not _scene_projects(name))
+
+
+def default_gradient_sweeps(*, quick: bool = False) -> tuple[SolverSweep, ...]:
+    """The solvers and settings of `lerax-like gradients`."""
+    if quick:
+        # Each substep count is a separate compilation (substeps shape the solve), the
+        # tolerances of one solver share one: two points per fixed-step order.
+        return (
+            SolverSweep("euler", substeps=(1, 4)),
+            SolverSweep("rk4", substeps=(1, 4)),
+            SolverSweep("tsit5", tolerances=_tolerance_pairs([4, 8])),
+        )
+    powers = (1, 2, 4, 8, 16, 32)
+    return (
+        SolverSweep("euler", substeps=powers),
+        SolverSweep("midpoint", substeps=powers),
+        SolverSweep("rk4", substeps=powers),
+        SolverSweep("tsit5", tolerances=_tolerance_pairs([3, 5, 7, 9])),
+        SolverSweep("dopri5", tolerances=_tolerance_pairs([3, 5, 7, 9])),
+        SolverSweep("kvaerno5", tolerances=_tolerance_pairs([3, 5, 7, 9])),
+    )
+
+
+@dataclasses.dataclass(frozen=True)
+class GradientStudyConfig:
+    """Everything a gradient study depends on; the JSON record holds it.
+
+    - `scene`, `scene_kwargs`: the env, by its name in `gradient_scenes()`, and its keywords.
+    - `sweeps`: the solver settings (`default_gradient_sweeps()` if empty).
+    - `horizon`: env steps of the rollout; `seed`: draws the initial state from
+      `env.initial` and the actions from the action space, unless `initial_state`,
+      `actions` are given.
+    - `parameters`: names of `env.dynamics` fields to differentiate with respect to
+      (`None`: all of them, the physical parameters).
+    - `cost`: the loss of the trajectory `ys` (default `mean_squared_state`).
+    - `mode`, `repeats`, `reference_rtol`: as in `gradient_work_precision`. Forward mode
+      by default: with a handful of parameters it is the cheaper exact mode.
+    - `fit_ceiling`: orders are fitted to gradient errors below it.
+    """
+
+    scene: str = "CartPole"
+    scene_kwargs: dict[str, Any] = dataclasses.field(default_factory=dict)
+    sweeps: tuple[SolverSweep, ...] = ()
+    horizon: int = 100
+    seed: int = 0
+    initial_state: Any = None
+    actions: Any = None
+    parameters: tuple[str, ...] | None = None
+    cost: Callable[[Float[Array, "T n"]], Scalar] = mean_squared_state
+    mode: Literal["reverse", "forward"] = "forward"
+    repeats: int = 5
+    reference_rtol: float = 1e-12
+    fit_ceiling: float = 0.2
+
+    def __post_init__(self):
+        if self.scene not in SCENES:
+            raise ValueError(f"unknown scene {self.scene!r}; the gradient study takes: {', '.join(gradient_scenes())}")
+        if _scene_projects(self.scene):
+            raise ValueError(
+                f"{self.scene} clips or wraps its state after every step (its `project`), so the "
+                "gradient of a rollout loss has kinks and no continuous-time limit to measure against; "
+                f"the gradient study takes: {', '.join(gradient_scenes())}"
+            )
+        if self.mode not in ("reverse", "forward"):
+            raise ValueError(f"mode must be 'reverse' or 'forward', got {self.mode!r}")
+        check_count(self.horizon, "horizon")
+        check_count(self.repeats, "repeats")
+        if not self.reference_rtol > 0:
+            raise ValueError(f"reference_rtol must be > 0, got {self.reference_rtol}")
+
+    @classmethod
+    def default(cls, scene: str = "CartPole", *, quick: bool = False, **overrides) -> "GradientStudyConfig":
+        """The study `lerax-like gradients SCENE [--quick]` runs."""
+        settings: dict[str, Any] = dict(scene=scene, sweeps=default_gradient_sweeps(quick=quick))
+        if quick:
+            settings.update(repeats=3)
+        settings.update(overrides)
+        return cls(**settings)
+
+
+def _parameter_where(parameters: tuple[str, ...] | None) -> Callable[[AbstractEnv], Any]:
+    if parameters is None:
+        return lambda env: env.dynamics
+    return lambda env: tuple(getattr(env.dynamics, name) for name in parameters)
+
+
+def _parameter_names(env: AbstractEnv, where: Callable[[AbstractEnv], Any], parameters) -> list[str]:
+    """One name per differentiated element, in the order of the flattened gradient."""
+    names = []
+    for path, leaf in jax.tree_util.tree_flatten_with_path(where(env))[0]:
+        if not eqx.is_inexact_array(leaf):
+            continue
+        name = jax.tree_util.keystr(path).lstrip(".")
+        if parameters is not None:
+            name = parameters[path[0].idx]
+        size = int(np.size(leaf))
+        names.extend([name] if size == 1 else [f"{name}[{i}]" for i in range(size)])
+    return names
+
+
+def _describe(function: Callable) -> str:
+    """A function's name and the first line of its docstring, for the record."""
+    doc = (function.__doc__ or "").strip()
+    return f"{function.__name__}: {doc.splitlines()[0]}" if doc else function.__name__
+
+
+def run_gradient_study(config: GradientStudyConfig) -> StudyResult:
+    """Run `config` (in float64) and return its rows, one per solver setting.
+
+    See `gradient_work_precision` for what a row holds; `result.convergence_orders()`
+    gives the order of the gradient error per fixed-step solver.
+    """
+    with jax.enable_x64(True):
+        return _run_gradient_study(config)
+
+
+def _run_gradient_study(config: GradientStudyConfig) -> StudyResult:
+    env = make_scene(config.scene, **config.scene_kwargs)
+    if config.parameters is not None:
+        fields = {field.name for field in dataclasses.fields(env.dynamics)}
+        unknown = [name for name in config.parameters if name not in fields]
+        if unknown:
+            raise ValueError(f"{config.scene} has no physical parameters {unknown}; it has {sorted(fields)}")
+    initial_key, action_key = jr.split(jr.key(config.seed))
+    if config.initial_state is None:
+        y0 = env.initial(key=initial_key).y
+    else:
+        y0 = jnp.asarray(config.initial_state, dtype=jnp.float64)
+    if config.actions is None:
+        actions = jax.vmap(lambda k: env.action_space.sample(key=k))(jr.split(action_key, config.horizon))
+    else:
+        actions = jnp.asarray(config.actions)
+        if actions.shape[0] != config.horizon:
+            raise ValueError(f"actions has {actions.shape[0]} steps, horizon is {config.horizon}")
+    sweeps = config.sweeps or default_gradient_sweeps()
+    where = _parameter_where(config.parameters)
+    settings = [(sweep, integrator) for sweep in sweeps for _, integrator in sweep.integrators()]
+    rows, reference = gradient_work_precision(
+        env,
+        trajectory_loss(y0, actions, config.cost),
+        where,
+        [(sweep.label, integrator) for sweep, integrator in settings],
+        mode=config.mode,
+        reference_rtol=config.reference_rtol,
+        repeats=config.repeats,
+    )
+    for (sweep, _), row in zip(settings, rows):
+        row.update(
+            scene=config.scene, solver=sweep.solver, mode=config.mode, horizon=config.horizon,
+            reference_rtol=config.reference_rtol, reference_floor=reference["floor"],
+        )
+    record = {
+        "config": {
+            "scene": config.scene,
+            "scene_kwargs": config.scene_kwargs,
+            "sweeps": [dataclasses.asdict(sweep) for sweep in sweeps],
+            "horizon": config.horizon,
+            "seed": config.seed,
+            "parameters": config.parameters,
+            "cost": _describe(config.cost),
+            "mode": config.mode,
+            "repeats": config.repeats,
+            "reference_rtol": config.reference_rtol,
+            "fit_ceiling": config.fit_ceiling,
+            "dtype": "float64",
+        },
+        "dt": float(env.dt),
+        "initial_state": np.asarray(y0).tolist(),
+        "actions": np.asarray(actions).tolist(),
+        "parameter_names": _parameter_names(env, where, config.parameters),
+        "reference": {
+            "solver": "dopri8 (diffrax), PIDController, atol = rtol / 100, forward mode",
+            **reference,
+            "floor_estimate": "|g_check - g| / |g|, g_check at 10 rtol and dtmax = dt / 4",
+        },
+        "environment": environment_record(),
+    }
+    return StudyResult(config=config, rows=rows, record=record)
+
+
+def sensitivity_signs(
+    env: AbstractEnv,
+    where: Callable[[AbstractEnv], Array],
+    y0: State,
+    actions: Array,
+    component: int,
+    *,
+    reference_rtol: float = 1e-12,
+    threshold: float = 0.2,
+) -> dict[str, Any]:
+    """Where the env's own solver gets the sign of `d y_component(t_k) / d where(env)` wrong.
+
+    Compares the sensitivity along the rollout of `actions` from `y0` (one value per env
+    step, by `trajectory_sensitivity`) with the reference's (`reference_integrator`).
+    Returns `{"times", "sensitivity", "reference", "wrong_sign_fraction",
+    "first_clear_wrong_sign_step"}`: the last is the first step at which the signs
+    differ while both magnitudes exceed `threshold` times the reference's largest (a
+    disagreement that is no near-zero crossing), or None.
+    """
+    approximate = np.asarray(trajectory_sensitivity(env, where, y0, actions)[:, component])
+    exact_env = with_integrator(env, reference_integrator(reference_rtol))
+    exact = np.asarray(trajectory_sensitivity(exact_env, where, y0, actions)[:, component])
+    wrong = np.sign(approximate) != np.sign(exact)
+    large = np.minimum(np.abs(approximate), np.abs(exact)) > threshold * np.max(np.abs(exact))
+    clear = np.nonzero(wrong & large)[0]
+    return {
+        "times": (float(env.dt) * np.arange(1, len(exact) + 1)).tolist(),
+        "sensitivity": approximate.tolist(),
+        "reference": exact.tolist(),
+        "wrong_sign_fraction": float(np.mean(wrong)),
+        "first_clear_wrong_sign_step": int(clear[0]) if clear.size else None,
+        "threshold": threshold,
+    }

@@ -295,9 +295,13 @@ def _invariant_drifts(dynamics, ys: np.ndarray, y0s: np.ndarray) -> dict[str, fl
 
 @dataclasses.dataclass
 class StudyResult:
-    """The rows of a study (one per schedule and setting) and what produced them."""
+    """The rows of a study (one per schedule and setting) and what produced them.
 
-    config: StudyConfig
+    `config` is the `StudyConfig`; `run_gradient_study` returns one too, with its
+    `GradientStudyConfig` (both have the `fit_ceiling` the orders are fitted below).
+    """
+
+    config: Any
     rows: list[dict[str, Any]]
     record: dict[str, Any]
 
