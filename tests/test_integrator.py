@@ -94,7 +94,7 @@ def test_a_non_finite_single_step_is_reported():
     ("integrator", "steps"),
     [
         (ll.make_integrator("rk4", substeps=3), 3),
-        (ll.make_integrator("rk4", adjoint=diffrax.BacksolveAdjoint()), 1),
+        (ll.make_integrator("rk4", adjoint=diffrax.BacksolveAdjoint(throw=True)), 1),
         (ll.make_integrator("rk4", diffrax.StepTo(ts=jnp.array([0.0, 0.01, 0.02]))), 2),
     ],
     ids=["substeps", "backsolve", "step_to"],
