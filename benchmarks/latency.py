@@ -4,17 +4,17 @@ Single env, one `step(action)` call at a time, random actions, reset (untimed) w
 episode ends:
 - `lerax_like/CartPole-v1` through `gymnasium.make` (with Gymnasium's wrappers) and its
   `unwrapped` env;
-- the layer's compiled step alone (`unwrapped._split.step` + `jax.device_get`), to split
+- the layer's compiled step alone (`unwrapped._split.step` + `np.asarray`), to split
   the layer's Python bookkeeping from the jitted call;
 - the JAX floor: one bare `jax.jit` function that takes the same arrays as the layer's
-  compiled step (packed parameters, float64 state, step count, action, and a key for a
-  stochastic scene) and returns arrays of the same shapes and dtypes (from
+  compiled step (packed parameters; action, step count and float64 state packed in one
+  array; a key for a stochastic scene) and returns arrays of the same shapes and dtypes (from
   `jax.eval_shape` of the compiled step) without computing anything, fetched with
-  `jax.device_get` (what any layer must at least do per step);
+  `np.asarray` (what any layer must at least do per step);
 - Gymnasium's numpy `CartPole-v1` through `gymnasium.make` and unwrapped.
 Vector envs at N (default 1024): `make_vec("lerax_like/CartPole-v1", vectorization_mode=
 "vector_entry_point")` against Gymnasium's numpy vector CartPole, steps per second, and the
-vector step's JAX floor (a bare jitted call with its inputs and outputs, plus `device_get`).
+vector step's JAX floor (a bare jitted call with its inputs and outputs, plus `np.asarray`).
 
 Each candidate is timed per call; a block's statistic is the median call, and the
 blocks of all candidates are interleaved; the minimum over blocks is reported.
@@ -42,7 +42,7 @@ HERE = pathlib.Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 
 import lerax_like  # noqa: E402,F401  (registers the lerax_like/ ids)
-from lerax_like.gym._compiled import float64  # noqa: E402
+from lerax_like.gym._compiled import float64, pack_step  # noqa: E402
 
 
 def gym_stepper(env, actions):
@@ -76,12 +76,18 @@ def compiled_stepper(env, actions):
         with float64():
             for action in actions:
                 start = time.perf_counter()
-                *outputs, key = split.step(split.parameters, y, np.int64(0), np.int64(action), key)
-                jax.device_get(outputs)
+                *outputs, key = split.step(split.parameters, pack_step(y, 0, action), key)
+                _fetch(outputs)
                 times.append(time.perf_counter() - start)
         return statistics.median(times)
 
     return block
+
+
+def _fetch(outputs):
+    # What the layer does with its results: `np.asarray` per array (`jax.device_get`
+    # costs far more for arrays this small).
+    return [np.asarray(output) for output in outputs]
 
 
 def _bare(shapes):
@@ -104,18 +110,20 @@ def floor_stepper(env, actions):
     key = unwrapped._jax_key
 
     with float64():
-        shapes = jax.eval_shape(split.step, split.parameters, y, np.int64(0), np.int64(0), key)
+        shapes = jax.eval_shape(split.step, split.parameters, pack_step(y, 0, 0), key)
         bare = _bare(shapes)
-        jax.block_until_ready(bare(split.parameters, y, np.int64(0), np.int64(0), key))
+        jax.block_until_ready(bare(split.parameters, pack_step(y, 0, 0), key))
+
+    packed = [pack_step(y, 0, action) for action in actions]  # the floor does not pack
 
     def block():
         nonlocal key
         times = []
         with float64():
-            for action in actions:
+            for inputs in packed:
                 start = time.perf_counter()
-                *outputs, key = bare(split.parameters, y, np.int64(0), np.int64(action), key)
-                jax.device_get(outputs)
+                *outputs, key = bare(split.parameters, inputs, key)
+                _fetch(outputs)
                 times.append(time.perf_counter() - start)
         return statistics.median(times)
 
@@ -158,13 +166,13 @@ def vector_floor_stepper(env, num_steps):
             for _ in range(num_steps):
                 actions = rng.integers(0, 2, num_envs)
                 _, _, *outputs, _ = bare(split.parameters, y, steps, actions, key, reset_mask, y, time_limit)
-                jax.device_get(outputs)
+                _fetch(outputs)
         return time.perf_counter() - start
     return block
 
 
 def vector_compiled_stepper(env, num_steps):
-    """The layer's jitted vector step alone (no restarts) + `device_get`, without its bookkeeping."""
+    """The layer's jitted vector step alone (no restarts) + `fetch`, without its bookkeeping."""
     unwrapped = env.unwrapped if hasattr(env, "unwrapped") else env
     split = unwrapped._split
     env.reset(seed=0)
@@ -179,7 +187,7 @@ def vector_compiled_stepper(env, num_steps):
             for _ in range(num_steps):
                 actions = rng.integers(0, 2, num_envs)
                 _, _, *outputs, _ = split.vector_step(split.parameters, y, steps, actions, key, reset_mask, y, time_limit)
-                jax.device_get(outputs)
+                _fetch(outputs)
         return time.perf_counter() - start
 
     return block
@@ -204,8 +212,8 @@ def main():
     single = {
         "lerax_like gym.make step": gym_stepper(ours, actions),
         "lerax_like unwrapped step": gym_stepper(ours.unwrapped, actions),
-        "lerax_like compiled step + device_get": compiled_stepper(ours, actions),
-        "JAX floor: bare jitted call + device_get": floor_stepper(ours, actions),
+        "lerax_like compiled step + fetch": compiled_stepper(ours, actions),
+        "JAX floor: bare jitted call + fetch": floor_stepper(ours, actions),
         "Gymnasium CartPole gym.make step": gym_stepper(theirs, actions),
         "Gymnasium CartPole unwrapped step": gym_stepper(theirs.unwrapped, actions),
     }
@@ -213,7 +221,7 @@ def main():
     our_vector = gymnasium.make_vec("lerax_like/CartPole-v1", num_envs=n, vectorization_mode="vector_entry_point")
     vector = {
         f"lerax_like vector env, N={n}": vector_stepper(our_vector, vector_steps),
-        f"lerax_like compiled vector step + device_get, N={n}": vector_compiled_stepper(our_vector, vector_steps),
+        f"lerax_like compiled vector step + fetch, N={n}": vector_compiled_stepper(our_vector, vector_steps),
         f"JAX floor of a vector step, N={n}": vector_floor_stepper(our_vector, vector_steps),
         f"Gymnasium vector CartPole, N={n}": vector_stepper(
             gymnasium.make_vec("CartPole-v1", num_envs=n, vectorization_mode="vector_entry_point"), vector_steps
@@ -229,7 +237,7 @@ def main():
         for name, block in {**single, **vector}.items():
             results[name].append(block())
 
-    floor = min(results["JAX floor: bare jitted call + device_get"])
+    floor = min(results["JAX floor: bare jitted call + fetch"])
     gymnasium_step = min(results["Gymnasium CartPole gym.make step"])
     rows = []
     for name in single:

@@ -19,8 +19,10 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import jax.random as jr
+import numpy as np
 
 from ..env import AbstractEnv, EnvState
+from ..spaces import Discrete
 
 
 def float64():
@@ -56,6 +58,11 @@ class SplitScene:
             return None
         with float64():
             return jr.key(int(seed) % 2**32)
+
+
+def pack_step(y: np.ndarray, steps: int, action) -> np.ndarray:
+    """The inputs of `SplitScene.step` as one float64 array: one host-to-device transfer."""
+    return np.concatenate([np.ravel(action), [steps], y], dtype=np.float64)
 
 
 def _cache(function: Callable) -> Callable:
@@ -121,8 +128,15 @@ def _functions(treedef, static, layout):
         return observation.astype(jnp.float32)
 
     @jax.jit
-    def step(parameters, y, steps, action, key):
+    def step(parameters, inputs, key):
+        """One step from `inputs = [action..., steps, y...]`, packed by `pack_step`."""
         scene = scene_of(parameters)
+        space = scene.action_space
+        size = math.prod(space.shape)
+        action = inputs[:size].reshape(space.shape)
+        if isinstance(space, Discrete):
+            action = action.astype(jnp.int64)
+        steps, y = inputs[size].astype(jnp.int64), inputs[size + 1 :]
         key, (step_key, observation_key) = split(scene, key, 2)
         next_y, reward, terminated, info = transition(scene, y, steps, action, step_key)
         observation = observe_one(scene, next_y, steps + 1, observation_key)
@@ -184,4 +198,4 @@ def _functions(treedef, static, layout):
     return step, observe, vector_step, vector_observe
 
 
-__all__ = ["SplitScene", "build_scene", "float64"]
+__all__ = ["SplitScene", "build_scene", "float64", "pack_step"]

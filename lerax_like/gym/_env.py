@@ -7,7 +7,7 @@ import jax
 import numpy as np
 
 from . import _render
-from ._compiled import SplitScene, build_scene, float64
+from ._compiled import SplitScene, build_scene, float64, pack_step
 from ._spaces import to_gymnasium_space
 from ._specs import GymSpec
 
@@ -44,6 +44,7 @@ class GymnasiumEnv(gymnasium.Env):
         with float64():
             self.action_space = to_gymnasium_space(self.scene.action_space)
             self.observation_space = to_gymnasium_space(self.scene.observation_space)
+        self._observation_size = int(np.prod(self.observation_space.shape))
         self.metadata = {**self.metadata, "render_fps": _render.render_fps(spec)}
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}")
@@ -79,7 +80,7 @@ class GymnasiumEnv(gymnasium.Env):
         y = self._gym_spec.initial_state(np.random.default_rng(0), None, 1)[:, 0]
         action = self._action(self._zero_action())
         with float64():
-            jax.block_until_ready(self._split.step(self._split.parameters, y, np.int64(0), action, self._jax_key))
+            jax.block_until_ready(self._split.step(self._split.parameters, pack_step(y, 0, action), self._jax_key))
             jax.block_until_ready(self._split.observe(self._split.parameters, y, np.int64(0), self._jax_key))
 
     def _zero_action(self):
@@ -89,7 +90,13 @@ class GymnasiumEnv(gymnasium.Env):
 
     def _action(self, action) -> np.ndarray:
         if isinstance(self.action_space, gymnasium.spaces.Discrete):
-            assert self.action_space.contains(action), f"{action!r} ({type(action)}) invalid"
+            # `self.action_space.contains(action)`, which Gymnasium's CartPole asserts, in
+            # half its time: an integer, or an integer array of shape (), in range.
+            integer = isinstance(action, int) or (
+                isinstance(action, (np.generic, np.ndarray)) and action.dtype.kind in "iu" and action.shape == ()
+            )
+            start = self.action_space.start
+            assert integer and start <= action < start + self.action_space.n, f"{action!r} ({type(action)}) invalid"
             return np.int64(action)
         array = np.asarray(action, dtype=np.float64)
         if array.size != 1:
@@ -117,15 +124,15 @@ class GymnasiumEnv(gymnasium.Env):
         assert self._state is not None, "Call reset before using step method."
         with float64():
             outcome, self._jax_key = self._split.step(
-                self._split.parameters, self._state, np.int64(self._steps), action, self._jax_key
+                self._split.parameters, pack_step(self._state, self._steps, action), self._jax_key
             )
         # np.asarray, not jax.device_get: the latter costs far more for arrays this small.
         outcome = np.asarray(outcome)
-        n, m = self._state.shape[0], self.observation_space.shape[0]
+        n, m = self._state.shape[0], self._observation_size
         # The observation was computed in float32; the float64 round trip is exact.
         observation = outcome[n : n + m].astype(np.float32)
-        reward, terminated, solver_ok, solver_steps = outcome[n + m :]
-        self._state = np.array(outcome[:n])
+        reward, terminated, solver_ok, solver_steps = outcome[n + m :].tolist()
+        self._state = outcome[:n].copy()
         self._steps += 1
         self._last_action = action
         if self.render_mode == "human":
