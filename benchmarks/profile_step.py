@@ -96,7 +96,7 @@ def variants(env):
 
     return {
         "physics only (hand Euler)": (physics_only, initial),
-        "physics only (diffeqsolve Euler)": (diffeqsolve_only, initial),
+        "physics only (Integrator Euler)": (diffeqsolve_only, initial),
         "hand step, constant reset": (hand_step_no_reset, initial),
         "hand step, gymnax key work": (hand_step_with_reset, initial),
         "hand step, split(5)+split(2) keys": (hand_step_lerax_keys, initial),
