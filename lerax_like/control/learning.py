@@ -132,9 +132,15 @@ def episode_lengths(env: AbstractEnv, policy: Callable, *, key: Key, num_starts:
     """Steps each of `num_starts` episodes from the env's random starts lasts under `policy`, capped at `max_steps`.
 
     Uses `env.step`, so the env's own termination (angle and position thresholds) ends
-    an episode; a truncation does not (its autoreset is ignored past the cap).
+    an episode; a truncation does not (its autoreset is ignored past the cap). The env
+    and the policy are arguments of one jitted function, so evaluating the same policy
+    on envs that differ only in their parameters (a sweep over pole masses) compiles once.
     """
+    return _episode_lengths(env, policy, jr.split(key, num_starts), max_steps)
 
+
+@eqx.filter_jit
+def _episode_lengths(env: AbstractEnv, policy: Callable, keys: Key, max_steps: int) -> Array:
     def one(key):
         reset_key, step_key = jr.split(key)
         state, observation, _ = env.reset(key=reset_key)
@@ -150,7 +156,7 @@ def episode_lengths(env: AbstractEnv, policy: Callable, *, key: Key, num_starts:
         (_, _, _, length), _ = jax.lax.scan(body, carry, jr.split(step_key, max_steps))
         return length
 
-    return eqx.filter_jit(jax.vmap(one))(jr.split(key, num_starts))
+    return jax.vmap(one)(keys)
 
 
 def optimise_open_loop(
