@@ -94,5 +94,5 @@ def balanced_fractions(
         lengths = episode_lengths(
             CartPoleContinuous(pole_mass=pole_mass), policy, key=key, num_starts=num_starts, max_steps=max_steps
         )
-        fractions[float(pole_mass)] = float(jnp.mean(lengths >= max_steps))
+        fractions[float(pole_mass)] = int(jnp.sum(lengths >= max_steps)) / num_starts
     return fractions

@@ -130,13 +130,13 @@ def train_policy_curriculum(
     return of a long rollout is then dominated by a swinging pendulum whose gradient
     carries little about how to catch it (on CartPoleContinuous with a cost on the cart,
     100-step rollouts from scratch stalled at a mean reward of 0.5 a step for 4 seeds of
-    4). A short horizon teaches the catch; once the closed loop is stable, the gradient
-    through a long rollout no longer blows up and teaches what shows only over seconds
-    (a slowly growing oscillation, the cart's drift).
+    4). A short horizon teaches the catch; once the closed loop is stable, long rollouts
+    no longer end in a swinging pendulum, and their gradient teaches what shows only over
+    seconds (a slowly growing oscillation, the cart's drift).
 
     All stages run one compiled update: rollouts are `max(horizons)` steps long and a
-    stage counts the rewards of its first `horizons[i]` steps (the extra steps cost
-    little next to a compilation).
+    stage counts the rewards of its first `horizons[i]` steps (on CartPoleContinuous the
+    extra steps cost less than the compilations they save).
 
     Returns the trained policy and a tuple with each stage's mean return per iteration.
     """
