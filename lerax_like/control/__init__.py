@@ -1,7 +1,8 @@
 """Control and identification by gradients through the model: system identification by
 multiple shooting (`fit_parameters`, and `fit_transitions` for one-step data), iLQR,
 adaptive (refitting) MPC, and in `lerax_like.control.learning` policy learning and
-open-loop trajectory optimisation through the simulator."""
+open-loop trajectory optimisation through the simulator (`lerax_like.control.domain_randomisation`:
+its recipe for a cart-pole policy trained over a batch of pole masses)."""
 
 from .identification import (
     fit_parameters as fit_parameters,
