@@ -196,12 +196,13 @@ def rollout(
     Pure, so `jax.grad` of a loss of the trajectory flows to parameters, actions, `dt`
     and the initial state.
     """
+    # A deterministic env's transitions get no key (`None`, an empty pytree to `scan`).
     keys = jr.split(key, actions.shape[0]) if env.stochastic else None
 
     def body(state, inputs):
-        action, step_key = inputs if env.stochastic else (inputs, None)
+        action, step_key = inputs
         next_state, info = env.transition(state, action, key=step_key)
         return next_state, (next_state.y, info)
 
-    _, (ys, infos) = jax.lax.scan(body, state, (actions, keys) if env.stochastic else actions)
+    _, (ys, infos) = jax.lax.scan(body, state, (actions, keys))
     return ys, infos
