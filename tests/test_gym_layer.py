@@ -448,3 +448,38 @@ def test_vector_env_refuses_invalid_actions():
             reference.step(actions)
         with pytest.raises(AssertionError, match="invalid"):
             ours.step(actions)
+
+
+class _NoisyCartPole(lerax_like.CartPole):
+    """CartPole seen through noise drawn with the observation's key: a stochastic scene."""
+
+    stochastic = True
+
+    def observation(self, state, *, key):
+        return state.y + 1e-3 * jax.random.normal(key, state.y.shape)
+
+
+def test_a_stochastic_scene_gets_seeded_keys_through_the_layer():
+    # Every built-in scene is deterministic; the layer's key path is for scenes like this.
+    def episode(env):
+        env.unwrapped.scene = _NoisyCartPole()
+        observation, _ = env.reset(seed=5)
+        observations = [observation]
+        for _ in range(5):
+            observations.append(env.step(1)[0])
+        return np.array(observations), env.unwrapped.state
+
+    first, state = episode(gymnasium.make("lerax_like/CartPole-v1"))
+    second, _ = episode(gymnasium.make("lerax_like/CartPole-v1"))
+    np.testing.assert_array_equal(first, second)  # the seed fixes the noise
+    noise = first[-1] - state.astype(np.float32)
+    assert 1e-5 < np.max(np.abs(noise)) < 1e-2
+    assert len({tuple(row) for row in np.diff(first, axis=0)}) == 5  # fresh noise each step
+
+    vector = gymnasium.make_vec("lerax_like/CartPole-v1", num_envs=3, vectorization_mode="vector_entry_point")
+    vector.scene = _NoisyCartPole()
+    observations, _ = vector.reset(seed=5)
+    observations = vector.step(np.ones(3, dtype=np.int64))[0]
+    noise = observations - vector.state.T.astype(np.float32)
+    assert 1e-5 < np.max(np.abs(noise)) < 1e-2
+    assert len({tuple(row) for row in noise}) == 3  # each env its own noise

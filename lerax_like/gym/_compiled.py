@@ -49,7 +49,8 @@ class SplitScene:
         layout = tuple((leaf.shape, leaf.dtype) for leaf in leaves)
         self.scene = scene
         with float64():
-            self.parameters = jnp.concatenate([jnp.ravel(leaf).astype(jnp.float64) for leaf in leaves] + [jnp.zeros(0)])
+            flat = [jnp.ravel(leaf).astype(jnp.float64) for leaf in leaves]
+            self.parameters = jnp.concatenate([*flat, jnp.zeros(0)])
         functions = _functions(treedef, static, layout)
         self.step, self.observe, self.vector_step, self.vector_observe = functions
 
@@ -88,7 +89,7 @@ def _functions(treedef, static, layout):
             start += size
         return eqx.combine(jax.tree.unflatten(treedef, leaves), static)
 
-    def split(scene, key, count, num_envs=None):
+    def split(key, count, num_envs=None):
         """The carried key and `count` keys (per env, given `num_envs`) for the scene's parts.
 
         A deterministic scene carries no key (`None`, see `SplitScene.key`).
@@ -102,7 +103,7 @@ def _functions(treedef, static, layout):
 
     def transition(scene, y, steps, action, key):
         state = EnvState(y=y, steps=steps)
-        _, (transition_key, reward_key, terminal_key) = split(scene, key, 3)
+        _, (transition_key, reward_key, terminal_key) = split(key, 3)
         next_state, info = scene.transition(state, action, key=transition_key)
         reward = scene.reward(state, action, next_state, key=reward_key)
         # As `AbstractEnv.step`: a failed solve, or a reward that overflows, ends the
@@ -137,7 +138,7 @@ def _functions(treedef, static, layout):
         if isinstance(space, Discrete):
             action = action.astype(jnp.int64)
         steps, y = inputs[size].astype(jnp.int64), inputs[size + 1 :]
-        key, (step_key, observation_key) = split(scene, key, 2)
+        key, (step_key, observation_key) = split(key, 2)
         next_y, reward, terminated, info = transition(scene, y, steps, action, step_key)
         observation = observe_one(scene, next_y, steps + 1, observation_key)
         observation, terminated, info = guard_observation(
@@ -152,7 +153,7 @@ def _functions(treedef, static, layout):
     @jax.jit
     def observe(parameters, y, steps, key):
         scene = scene_of(parameters)
-        key, (observation_key,) = split(scene, key, 1)
+        key, (observation_key,) = split(key, 1)
         return observe_one(scene, y, steps, observation_key), key
 
     @jax.jit
@@ -164,7 +165,7 @@ def _functions(treedef, static, layout):
         False. One compilation serves every time limit and every pattern of restarts.
         """
         scene = scene_of(parameters)
-        key, (step_keys, observation_keys) = split(scene, key, 2, num_envs=y.shape[0])
+        key, (step_keys, observation_keys) = split(key, 2, num_envs=y.shape[0])
         next_y, reward, terminated, info = jax.vmap(transition, in_axes=(None, 0, 0, 0, 0))(
             scene, y, steps, action, step_keys
         )
@@ -191,7 +192,7 @@ def _functions(treedef, static, layout):
     @jax.jit
     def vector_observe(parameters, y, steps, key):
         scene = scene_of(parameters)
-        key, (observation_keys,) = split(scene, key, 1, num_envs=y.shape[0])
+        key, (observation_keys,) = split(key, 1, num_envs=y.shape[0])
         observation = jax.vmap(observe_one, in_axes=(None, 0, 0, 0))(scene, y, steps, observation_keys)
         return observation, key
 

@@ -53,7 +53,6 @@ class GymnasiumEnv(gymnasium.Env):
         self._state: np.ndarray | None = None
         self._steps = 0
         self._last_action: np.ndarray | None = None
-        self._jax_key = self._split.key(0)
         self._warm_up()
 
     @property
@@ -64,6 +63,9 @@ class GymnasiumEnv(gymnasium.Env):
     @scene.setter
     def scene(self, scene) -> None:
         self._split = SplitScene(scene)
+        # The key of a stochastic scene's random parts starts again from seed 0 (as at
+        # construction; `reset(seed=...)` reseeds it); a deterministic scene needs none.
+        self._jax_key = self._split.key(0)
 
     @property
     def state(self) -> np.ndarray | None:

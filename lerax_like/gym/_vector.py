@@ -53,7 +53,7 @@ class GymnasiumVectorEnv(VectorEnv):
         self.num_envs = num_envs
         self.max_episode_steps = max_episode_steps
         scene = build_scene(getattr(scenes, spec.scene), scene_kwargs)
-        self._split = SplitScene(scene)
+        self.scene = scene
         with float64():
             self.single_action_space = to_gymnasium_space(scene.action_space)
             self.single_observation_space = to_gymnasium_space(scene.observation_space)
@@ -70,7 +70,6 @@ class GymnasiumVectorEnv(VectorEnv):
         self._steps: jax.Array | None = None
         self._prev_done = np.zeros(num_envs, dtype=np.bool_)
         self._last_action: np.ndarray | None = None
-        self._jax_key = self._split.key(0)
         self._info_mask = np.ones(num_envs, dtype=np.bool_)
         self._warm_up()
 
@@ -82,6 +81,9 @@ class GymnasiumVectorEnv(VectorEnv):
     @scene.setter
     def scene(self, scene) -> None:
         self._split = SplitScene(scene)
+        # The key of a stochastic scene's random parts starts again from seed 0 (as at
+        # construction; `reset(seed=...)` reseeds it); a deterministic scene needs none.
+        self._jax_key = self._split.key(0)
 
     @property
     def state(self) -> np.ndarray | None:
