@@ -39,6 +39,22 @@ def scanned(step, initial, num_steps: int):
     return rollout
 
 
+def gymnax_program():
+    """`(step, initial)` of gymnax's CartPole-v1 in the form `scanned` takes (gymnax imported lazily)."""
+    import gymnax
+
+    env, params = gymnax.make("CartPole-v1")
+
+    def initial(key):
+        return env.reset(key, params)[1]
+
+    def step(state, action, key):
+        _, state, reward, _, _, _ = env.step(key, state, action, params)
+        return state, reward
+
+    return step, initial
+
+
 def batched(rollout, num_envs: int):
     """A jitted function of one key running `num_envs` rollouts with `jax.vmap`."""
 

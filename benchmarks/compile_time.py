@@ -30,8 +30,8 @@ sys.path.insert(0, str(HERE.parent))
 sys.path.insert(0, str(HERE))
 
 import lerax_like  # noqa: E402
-from _workload import batched, scanned  # noqa: E402
-from throughput import gymnax_program, lerax_program  # noqa: E402
+from _workload import batched, gymnax_program, scanned  # noqa: E402
+from throughput import lerax_program  # noqa: E402
 
 
 NUM_STEPS = 1000

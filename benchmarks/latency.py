@@ -145,8 +145,10 @@ def vector_stepper(env, num_steps):
     return block
 
 
-def vector_floor_stepper(env, num_steps):
-    """The JAX floor of a vector step: a bare jitted call with the layer's vector inputs and outputs."""
+def vector_call_stepper(env, num_steps, *, floor: bool):
+    """Seconds for `num_steps` calls of the layer's jitted vector step (no restarts) plus
+    `np.asarray` of its results, without the layer's bookkeeping; with `floor`, of a bare
+    jitted call with the same inputs and outputs that computes nothing (the JAX floor)."""
     unwrapped = env.unwrapped if hasattr(env, "unwrapped") else env
     split = unwrapped._split
     env.reset(seed=0)
@@ -154,39 +156,19 @@ def vector_floor_stepper(env, num_steps):
     reset_mask, time_limit = unwrapped._no_reset, unwrapped._time_limit
     rng = np.random.default_rng(0)
     num_envs = env.num_envs
-
-    with float64():
-        arguments = (split.parameters, y, steps, np.zeros(num_envs, dtype=np.int64), key, reset_mask, y, time_limit)
-        bare = _bare(jax.eval_shape(split.vector_step, *arguments))
-        jax.block_until_ready(bare(*arguments))
+    call = split.vector_step
+    if floor:
+        with float64():
+            arguments = (split.parameters, y, steps, np.zeros(num_envs, dtype=np.int64), key, reset_mask, y, time_limit)
+            call = _bare(jax.eval_shape(split.vector_step, *arguments))
+            jax.block_until_ready(call(*arguments))
 
     def block():
         start = time.perf_counter()
         with float64():
             for _ in range(num_steps):
                 actions = rng.integers(0, 2, num_envs)
-                _, _, *outputs, _ = bare(split.parameters, y, steps, actions, key, reset_mask, y, time_limit)
-                _fetch(outputs)
-        return time.perf_counter() - start
-    return block
-
-
-def vector_compiled_stepper(env, num_steps):
-    """The layer's jitted vector step alone (no restarts) + `fetch`, without its bookkeeping."""
-    unwrapped = env.unwrapped if hasattr(env, "unwrapped") else env
-    split = unwrapped._split
-    env.reset(seed=0)
-    y, steps, key = unwrapped._y, unwrapped._steps, unwrapped._jax_key
-    reset_mask, time_limit = unwrapped._no_reset, unwrapped._time_limit
-    rng = np.random.default_rng(0)
-    num_envs = env.num_envs
-
-    def block():
-        start = time.perf_counter()
-        with float64():
-            for _ in range(num_steps):
-                actions = rng.integers(0, 2, num_envs)
-                _, _, *outputs, _ = split.vector_step(split.parameters, y, steps, actions, key, reset_mask, y, time_limit)
+                _, _, *outputs, _ = call(split.parameters, y, steps, actions, key, reset_mask, y, time_limit)
                 _fetch(outputs)
         return time.perf_counter() - start
 
@@ -221,8 +203,8 @@ def main():
     our_vector = gymnasium.make_vec("lerax_like/CartPole-v1", num_envs=n, vectorization_mode="vector_entry_point")
     vector = {
         f"lerax_like vector env, N={n}": vector_stepper(our_vector, vector_steps),
-        f"lerax_like compiled vector step + fetch, N={n}": vector_compiled_stepper(our_vector, vector_steps),
-        f"JAX floor of a vector step, N={n}": vector_floor_stepper(our_vector, vector_steps),
+        f"lerax_like compiled vector step + fetch, N={n}": vector_call_stepper(our_vector, vector_steps, floor=False),
+        f"JAX floor of a vector step, N={n}": vector_call_stepper(our_vector, vector_steps, floor=True),
         f"Gymnasium vector CartPole, N={n}": vector_stepper(
             gymnasium.make_vec("CartPole-v1", num_envs=n, vectorization_mode="vector_entry_point"), vector_steps
         ),

@@ -22,7 +22,7 @@ sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 
 import lerax_like  # noqa: E402
 from lerax_like.env import EnvState  # noqa: E402
-from _workload import batched, compile_seconds, interleaved, scanned, summary  # noqa: E402
+from _workload import batched, compile_seconds, gymnax_program, interleaved, scanned, summary  # noqa: E402
 
 
 def hand_euler(env, y, u):
@@ -46,49 +46,37 @@ def variants(env):
         y, _ = env.integrator.integrate(env.dynamics.vector_field, state.y, env.physical_input(action), env.dt)
         return EnvState(y=y, steps=state.steps + 1), jnp.ones(())
 
-    def hand_step_no_reset(state, action, key):
-        # Termination and truncation but the episode restarts from a constant state:
-        # `step` without the reset sampling and without key splitting.
+    def hand_step(start):
+        """Hand-written Euler, termination, truncation and the restart from `start(key)`,
+        drawn every step (under `vmap` a `cond` on `done` is a `select` of both branches)."""
+
+        def step(state, action, key):
+            y = hand_euler(env, state.y, env.physical_input(action))
+            next_state = EnvState(y=y, steps=state.steps + 1)
+            done = env.terminal(next_state, key=None) | env.truncate(next_state)
+            new_state = jax.tree.map(lambda a, b: jnp.where(done, a, b), start(key), next_state)
+            return new_state, jnp.ones(())
+
+        return step
+
+    def constant_start(key):
+        # No key work at all: `step` without the reset sampling and without key splitting.
         del key
-        y = hand_euler(env, state.y, env.physical_input(action))
-        next_state = EnvState(y=y, steps=state.steps + 1)
-        done = env.terminal(next_state, key=None) | env.truncate(next_state)
-        fresh = EnvState(y=jnp.zeros_like(y), steps=jnp.zeros_like(state.steps))
-        new_state = jax.tree.map(lambda a, b: jnp.where(done, a, b), fresh, next_state)
-        return new_state, jnp.ones(())
+        return EnvState(y=jnp.zeros(4, dtype=env.dt.dtype), steps=jnp.zeros((), dtype=int))
 
-    def hand_step_with_reset(state, action, key):
-        # As above, with gymnax's key work: one split in two and a reset sampled every step.
-        _, reset_key = jr.split(key)
-        y = hand_euler(env, state.y, env.physical_input(action))
-        next_state = EnvState(y=y, steps=state.steps + 1)
-        done = env.terminal(next_state, key=None) | env.truncate(next_state)
-        fresh = env.initial(key=reset_key)
-        new_state = jax.tree.map(lambda a, b: jnp.where(done, a, b), fresh, next_state)
-        return new_state, jnp.ones(())
+    def gymnax_start(key):
+        # gymnax's key work: one split in two, then the reset's own draw.
+        return env.initial(key=jr.split(key)[1])
 
-    def hand_step_lerax_keys(state, action, key):
-        # As above, with the key work of `AbstractEnv.step`'s first version: split
-        # in five, then `reset` split in two again.
-        _, _, _, _, reset_key = jr.split(key, 5)
-        y = hand_euler(env, state.y, env.physical_input(action))
-        next_state = EnvState(y=y, steps=state.steps + 1)
-        done = env.terminal(next_state, key=None) | env.truncate(next_state)
-        initial_key, _ = jr.split(reset_key)
-        fresh = env.initial(key=initial_key)
-        new_state = jax.tree.map(lambda a, b: jnp.where(done, a, b), fresh, next_state)
-        return new_state, jnp.ones(())
+    def first_version_start(key):
+        # The key work of `AbstractEnv.step`'s first version: split in five, then `reset`
+        # split in two again.
+        return env.initial(key=jr.split(jr.split(key, 5)[4])[0])
 
-    def hand_step_one_hash_start(state, action, key):
-        # As above, with the start drawn as `AbstractEnv.step` now draws it for a
-        # deterministic scene: the step's key goes to `initial`, which spends one hash
-        # on four 16-bit coordinates (`lerax_like._random.uniform`).
-        y = hand_euler(env, state.y, env.physical_input(action))
-        next_state = EnvState(y=y, steps=state.steps + 1)
-        done = env.terminal(next_state, key=None) | env.truncate(next_state)
-        fresh = env.initial(key=key)
-        new_state = jax.tree.map(lambda a, b: jnp.where(done, a, b), fresh, next_state)
-        return new_state, jnp.ones(())
+    def one_hash_start(key):
+        # As `AbstractEnv.step` now draws it for a deterministic scene: the step's key goes
+        # to `initial`, which spends one hash on four 16-bit coordinates.
+        return env.initial(key=key)
 
     def full_step(state, action, key):
         state, _, reward, _, _, _ = env.step(state, action, key=key)
@@ -97,27 +85,12 @@ def variants(env):
     return {
         "physics only (hand Euler)": (physics_only, initial),
         "physics only (Integrator Euler)": (diffeqsolve_only, initial),
-        "hand step, constant reset": (hand_step_no_reset, initial),
-        "hand step, gymnax key work": (hand_step_with_reset, initial),
-        "hand step, split(5)+split(2) keys": (hand_step_lerax_keys, initial),
-        "hand step, one-hash start": (hand_step_one_hash_start, initial),
+        "hand step, constant reset": (hand_step(constant_start), initial),
+        "hand step, gymnax key work": (hand_step(gymnax_start), initial),
+        "hand step, split(5)+split(2) keys": (hand_step(first_version_start), initial),
+        "hand step, one-hash start": (hand_step(one_hash_start), initial),
         "env.step (Euler)": (full_step, initial),
     }
-
-
-def gymnax_variant():
-    import gymnax
-
-    env, params = gymnax.make("CartPole-v1")
-
-    def initial(key):
-        return env.reset(key, params)[1]
-
-    def step(state, action, key):
-        _, state, reward, _, _, _ = env.step(key, state, action, params)
-        return state, reward
-
-    return {"gymnax CartPole-v1": (step, initial)}
 
 
 def main():
@@ -130,7 +103,7 @@ def main():
 
     env = lerax_like.CartPole(solver="euler")
     runs = {}
-    for name, (step, initial) in {**variants(env), **gymnax_variant()}.items():
+    for name, (step, initial) in {**variants(env), "gymnax CartPole-v1": gymnax_program()}.items():
         run = batched(scanned(step, initial, args.steps), args.envs)
         key = jr.key(0)
         _, compiled = compile_seconds(run, key)

@@ -34,7 +34,7 @@ sys.path.insert(0, str(HERE.parent))
 sys.path.insert(0, str(HERE))
 
 import lerax_like  # noqa: E402
-from _workload import batched, compile_seconds, interleaved, scanned, summary  # noqa: E402
+from _workload import batched, compile_seconds, gymnax_program, interleaved, scanned, summary  # noqa: E402
 
 
 SYNC_MAX_ENVS = 64
@@ -48,21 +48,6 @@ def lerax_program(solver: str):
 
     def step(state, action, key):
         state, _, reward, _, _, _ = env.step(state, action, key=key)
-        return state, reward
-
-    return step, initial
-
-
-def gymnax_program():
-    import gymnax
-
-    env, params = gymnax.make("CartPole-v1")
-
-    def initial(key):
-        return env.reset(key, params)[1]
-
-    def step(state, action, key):
-        _, state, reward, _, _, _ = env.step(key, state, action, params)
         return state, reward
 
     return step, initial

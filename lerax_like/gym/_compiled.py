@@ -61,6 +61,26 @@ class SplitScene:
             return jr.key(int(seed) % 2**32)
 
 
+class HoldsScene:
+    """The `scene` attribute the Gymnasium wrappers share: the functional env behind them,
+    split and compiled (`self._split`), with the key its random parts carry."""
+
+    _split: SplitScene
+    _jax_key: jax.Array | None
+
+    @property
+    def scene(self) -> AbstractEnv:
+        """The functional env behind the wrapper. Assign a modified scene to change parameters."""
+        return self._split.scene
+
+    @scene.setter
+    def scene(self, scene: AbstractEnv) -> None:
+        self._split = SplitScene(scene)
+        # The key of a stochastic scene's random parts starts again from seed 0 (as at
+        # construction; `reset(seed=...)` reseeds it); a deterministic scene needs none.
+        self._jax_key = self._split.key(0)
+
+
 def pack_step(y: np.ndarray, steps: int, action) -> np.ndarray:
     """The inputs of `SplitScene.step` as one float64 array: one host-to-device transfer."""
     return np.concatenate([np.ravel(action), [steps], y], dtype=np.float64)
@@ -199,4 +219,4 @@ def _functions(treedef, static, layout):
     return step, observe, vector_step, vector_observe
 
 
-__all__ = ["SplitScene", "build_scene", "float64", "pack_step"]
+__all__ = ["HoldsScene", "SplitScene", "build_scene", "float64", "pack_step"]

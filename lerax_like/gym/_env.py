@@ -7,12 +7,12 @@ import jax
 import numpy as np
 
 from . import _render
-from ._compiled import SplitScene, build_scene, float64, pack_step
+from ._compiled import HoldsScene, build_scene, float64, pack_step
 from ._spaces import to_gymnasium_space
 from ._specs import GymSpec
 
 
-class GymnasiumEnv(gymnasium.Env):
+class GymnasiumEnv(HoldsScene, gymnasium.Env):
     """A lerax_like scene as a Gymnasium env (what `gymnasium.make("lerax_like/<id>")` builds).
 
     Behaves as Gymnasium's own env of the same name:
@@ -54,18 +54,6 @@ class GymnasiumEnv(gymnasium.Env):
         self._steps = 0
         self._last_action: np.ndarray | None = None
         self._warm_up()
-
-    @property
-    def scene(self):
-        """The functional env behind this one. Assign a modified scene to change parameters."""
-        return self._split.scene
-
-    @scene.setter
-    def scene(self, scene) -> None:
-        self._split = SplitScene(scene)
-        # The key of a stochastic scene's random parts starts again from seed 0 (as at
-        # construction; `reset(seed=...)` reseeds it); a deterministic scene needs none.
-        self._jax_key = self._split.key(0)
 
     @property
     def state(self) -> np.ndarray | None:

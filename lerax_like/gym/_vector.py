@@ -10,12 +10,12 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from . import _render
-from ._compiled import SplitScene, build_scene, float64
+from ._compiled import HoldsScene, build_scene, float64
 from ._spaces import to_gymnasium_space
 from ._specs import GymSpec
 
 
-class GymnasiumVectorEnv(VectorEnv):
+class GymnasiumVectorEnv(HoldsScene, VectorEnv):
     """`num_envs` copies of a scene (what `gymnasium.make_vec("lerax_like/<id>", N,
     vectorization_mode="vector_entry_point")` builds).
 
@@ -72,18 +72,6 @@ class GymnasiumVectorEnv(VectorEnv):
         self._last_action: np.ndarray | None = None
         self._info_mask = np.ones(num_envs, dtype=np.bool_)
         self._warm_up()
-
-    @property
-    def scene(self):
-        """The functional env behind these. Assign a modified scene to change parameters."""
-        return self._split.scene
-
-    @scene.setter
-    def scene(self, scene) -> None:
-        self._split = SplitScene(scene)
-        # The key of a stochastic scene's random parts starts again from seed 0 (as at
-        # construction; `reset(seed=...)` reseeds it); a deterministic scene needs none.
-        self._jax_key = self._split.key(0)
 
     @property
     def state(self) -> np.ndarray | None:
