@@ -29,7 +29,7 @@ def _part_keys(key: Key, count: int, stochastic: bool) -> tuple[Key | None, ...]
     """
     if stochastic:
         return tuple(jr.fold_in(key, i) for i in range(count))
-    return (None,) * (count - 1) + (key,)
+    return (None,) * (count - 1) + (key,)  # `(None,) * count` when `key` is None
 
 
 class EnvState(eqx.Module):

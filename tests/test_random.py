@@ -103,3 +103,19 @@ def test_a_part_that_draws_in_an_env_declared_deterministic_fails_at_once():
     env = _noisy(_DeclaredDeterministic)
     with pytest.raises(TypeError, match="PRNG key type .*NoneType"):
         env.reset(key=jr.key(0))
+
+
+def test_policy_return_gives_a_stochastic_env_its_keys():
+    # A rollout through noisy observations: its return depends on the key (a
+    # deterministic env's parts would get no key at all and fail here).
+    from lerax_like.control.learning import policy_return
+
+    env = _noisy(_NoisyObservation)
+    state = ll.EnvState(y=jnp.zeros(1), steps=jnp.zeros((), dtype=int))
+
+    def observed_drift(key):
+        return policy_return(env, lambda observation: observation, state, 50, key=key,
+                             state_cost=lambda y: -y[0])  # reward = the state: sums the drift
+
+    first, second = observed_drift(jr.key(0)), observed_drift(jr.key(1))
+    assert np.isfinite(float(first)) and float(first) != float(second)

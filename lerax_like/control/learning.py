@@ -17,7 +17,7 @@ import jax.numpy as jnp
 import jax.random as jr
 
 from .._types import Array, ArrayLike, Float, Int, Key
-from ..env import AbstractEnv, EnvState
+from ..env import AbstractEnv, EnvState, _part_keys
 
 
 def _optax():
@@ -57,17 +57,19 @@ def policy_return(
     one compiled rollout then serves every horizon up to `horizon`.
     """
 
-    def body(state, key):
-        observation_key, reward_key = jr.split(key)
+    def body(state, step_key):
+        # A key per part, as `AbstractEnv.step` gives them (none for a deterministic env).
+        observation_key, transition_key, reward_key = _part_keys(step_key, 3, env.stochastic)
         observation = env.observation(state, key=observation_key)
         action = policy(observation)
-        next_state, _ = env.transition(state, action, key=key)
+        next_state, _ = env.transition(state, action, key=transition_key)
         reward = env.reward(state, action, next_state, key=reward_key)
         if state_cost is not None:
             reward = reward - state_cost(next_state.y)
         return next_state, reward
 
-    _, rewards = jax.lax.scan(body, state, jr.split(key, horizon))
+    step_keys = jr.split(key, horizon) if env.stochastic else None
+    _, rewards = jax.lax.scan(body, state, step_keys, length=horizon)
     if rewarded_steps is not None:
         rewards = jnp.where(jnp.arange(horizon) < rewarded_steps, rewards, jnp.zeros_like(rewards))
     return jnp.sum(rewards)
