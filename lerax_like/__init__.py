@@ -12,11 +12,16 @@ from .integrate import (
     make_integrator as make_integrator,
 )
 from .physics import (
+    AbstractChainDynamics as AbstractChainDynamics,
     AbstractConservativeDynamics as AbstractConservativeDynamics,
     AbstractDynamics as AbstractDynamics,
+    AbstractGeneralisedForce as AbstractGeneralisedForce,
     AcrobotDynamics as AcrobotDynamics,
     CartChainDynamics as CartChainDynamics,
     CartPoleDynamics as CartPoleDynamics,
+    EndStops as EndStops,
+    ForcedDynamics as ForcedDynamics,
+    JointDamping as JointDamping,
     MountainCarDynamics as MountainCarDynamics,
     NLinkPendulumDynamics as NLinkPendulumDynamics,
     PendulumDynamics as PendulumDynamics,

@@ -3,7 +3,7 @@ from typing import ClassVar
 
 import equinox as eqx
 
-from .._types import Input, Scalar, ScalarLike, State
+from .._types import Array, Float, Input, Scalar, ScalarLike, State
 
 
 class AbstractDynamics(eqx.Module):
@@ -32,4 +32,29 @@ class AbstractConservativeDynamics(AbstractDynamics):
     @abc.abstractmethod
     def energy(self, y: State) -> Scalar:
         """Total mechanical energy of the state `y`."""
+        raise NotImplementedError
+
+
+class AbstractChainDynamics(AbstractConservativeDynamics):
+    """A chain of rigid links hinged one on the next, from a fixed pivot or from a cart.
+
+    Its generalised coordinates are `q = [x, theta_1, ..., theta_n]` with a cart on a rail
+    (`has_cart`), `q = [theta_1, ..., theta_n]` without; the angles are absolute, from
+    upright, link 1 hinged on the pivot or the cart and link `i` on link `i - 1`. This is
+    what the generalised-force add-ons of `lerax_like.physics.forces` act on: they read
+    `(q, q_dot)` from `coordinates` and hand their forces to `forced_vector_field`.
+    """
+
+    has_cart: eqx.AbstractClassVar[bool]
+
+    @abc.abstractmethod
+    def coordinates(self, y: State) -> tuple[Float[Array, " q"], Float[Array, " q"]]:
+        """The generalised coordinates `q` and their rates `q_dot` in the state `y`."""
+        raise NotImplementedError
+
+    @abc.abstractmethod
+    def forced_vector_field(
+        self, t: ScalarLike, y: State, u: Input, generalised_force: Float[Array, " q"]
+    ) -> State:
+        """`vector_field` with the extra generalised force `Q` on `q` added to the input's."""
         raise NotImplementedError
