@@ -10,7 +10,7 @@ from .._random import uniform
 from .._types import Array, BoolScalar, Input, Key, Scalar, ScalarLike
 from ..env import AbstractEnv, EnvState
 from ..integrate import Integrator, make_integrator
-from ..physics import CartPoleDynamics
+from ..physics import CartPoleDynamics, EndStops, ForcedDynamics, JointDamping
 from ..spaces import Box, Discrete
 
 
@@ -19,19 +19,24 @@ SolverLike = "str | diffrax.AbstractSolver | Integrator"
 
 def _cartpole_parts(
     gravity, cart_mass, pole_mass, half_length, force_mag, theta_threshold_radians, x_threshold, dt,
-    solver, stepsize_controller, joint_damping=0.0, end_stop_stiffness=0.0, end_stop_damping=0.0,
-    track_limit=2.4,
-) -> tuple[CartPoleDynamics, Integrator, Scalar, Scalar, Scalar, Scalar]:
+    solver, stepsize_controller, joint_damping=None, end_stop_stiffness=None, end_stop_damping=None,
+    track_limit=None,
+) -> tuple["CartPoleDynamics | ForcedDynamics", Integrator, Scalar, Scalar, Scalar, Scalar]:
     check_positive(force_mag, "force_mag")
     check_positive_or_inf(theta_threshold_radians, "theta_threshold_radians")
     check_positive_or_inf(x_threshold, "x_threshold")
     check_positive(dt, "dt")
+    # Temporary wiring until the scenes take their add-ons by a general mechanism: an
+    # add-on is built only when one of its keywords is given.
+    dynamics = CartPoleDynamics(gravity=gravity, cart_mass=cart_mass, pole_mass=pole_mass, half_length=half_length)
+    forces = []
+    if joint_damping is not None:
+        forces.append(JointDamping(joint_damping))
+    stops = dict(end_stop_stiffness=end_stop_stiffness, end_stop_damping=end_stop_damping, track_limit=track_limit)
+    if any(value is not None for value in stops.values()):
+        forces.append(EndStops(**{name: value for name, value in stops.items() if value is not None}))
     return (
-        CartPoleDynamics(
-            gravity=gravity, cart_mass=cart_mass, pole_mass=pole_mass, half_length=half_length,
-            joint_damping=joint_damping, end_stop_stiffness=end_stop_stiffness,
-            end_stop_damping=end_stop_damping, track_limit=track_limit,
-        ),
+        ForcedDynamics(dynamics, forces) if forces else dynamics,
         make_integrator(solver, stepsize_controller),
         as_parameter(dt, "dt"),
         as_parameter(force_mag, "force_mag"),
@@ -43,7 +48,7 @@ def _cartpole_parts(
 class AbstractCartPole(AbstractEnv):
     """What the discrete and continuous cart-poles share: physics, start, observation, end."""
 
-    dynamics: eqx.AbstractVar[CartPoleDynamics]
+    dynamics: eqx.AbstractVar[CartPoleDynamics | ForcedDynamics]
     force_mag: eqx.AbstractVar[Scalar]
     theta_threshold_radians: eqx.AbstractVar[Scalar]
     x_threshold: eqx.AbstractVar[Scalar]
@@ -108,13 +113,14 @@ class CartPole(AbstractCartPole):
     `joint_damping` (hinge friction, N m s/rad; 300 is very stiff), `end_stop_stiffness`
     and `end_stop_damping` (one-sided spring-dampers at `x = +-track_limit`, stiffness up
     to 1e6 N/m; a contact), `track_limit` (m, the stops' position, default 2.4; set
-    `x_threshold=inf` to let the cart reach them). See `CartPoleDynamics`; stiff settings
+    `x_threshold=inf` to let the cart reach them). They are the add-ons `JointDamping` and
+    `EndStops` of `lerax_like.physics.forces`, built only when given; stiff settings
     need an adaptive solver (`"tsit5"`) or an implicit one (`"kvaerno5"`).
     """
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
 
-    dynamics: CartPoleDynamics
+    dynamics: CartPoleDynamics | ForcedDynamics
     integrator: Integrator
     dt: Scalar
     force_mag: Scalar
@@ -136,10 +142,10 @@ class CartPole(AbstractCartPole):
         solver: SolverLike = "euler",
         stepsize_controller: diffrax.AbstractStepSizeController | None = None,
         max_episode_steps: int | None = 500,
-        joint_damping: ScalarLike = 0.0,
-        end_stop_stiffness: ScalarLike = 0.0,
-        end_stop_damping: ScalarLike = 0.0,
-        track_limit: ScalarLike = 2.4,
+        joint_damping: ScalarLike | None = None,
+        end_stop_stiffness: ScalarLike | None = None,
+        end_stop_damping: ScalarLike | None = None,
+        track_limit: ScalarLike | None = None,
     ):
         (
             self.dynamics, self.integrator, self.dt, self.force_mag,
@@ -193,7 +199,7 @@ class CartPoleContinuous(AbstractCartPole):
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
 
-    dynamics: CartPoleDynamics
+    dynamics: CartPoleDynamics | ForcedDynamics
     integrator: Integrator
     dt: Scalar
     force_mag: Scalar
@@ -219,10 +225,10 @@ class CartPoleContinuous(AbstractCartPole):
         max_episode_steps: int | None = 500,
         reward: Literal["gymnasium", "smooth"] = "gymnasium",
         action_cost: ScalarLike = 1e-3,
-        joint_damping: ScalarLike = 0.0,
-        end_stop_stiffness: ScalarLike = 0.0,
-        end_stop_damping: ScalarLike = 0.0,
-        track_limit: ScalarLike = 2.4,
+        joint_damping: ScalarLike | None = None,
+        end_stop_stiffness: ScalarLike | None = None,
+        end_stop_damping: ScalarLike | None = None,
+        track_limit: ScalarLike | None = None,
     ):
         (
             self.dynamics, self.integrator, self.dt, self.force_mag,
