@@ -135,7 +135,10 @@ def test_cartpole_add_ons_match_lagrange_with_generalised_forces():
         theta, theta_dot, u = rng.uniform(-np.pi, np.pi), 3 * rng.normal(), 10 * rng.normal()
         dynamics = ForcedDynamics(
             CartPoleDynamics(gravity=gravity, cart_mass=cart_mass, pole_mass=pole_mass, half_length=half_length),
-            (JointDamping(damping), EndStops(stiffness, stop_damping, limit)),
+            (
+                JointDamping(joint_damping=damping),
+                EndStops(end_stop_stiffness=stiffness, end_stop_damping=stop_damping, track_limit=limit),
+            ),
         )
         ours = np.asarray(_field(dynamics, jnp.array([x, x_dot, theta, theta_dot]), jnp.array([u])))
         force = u + _stop_force(x, x_dot, stiffness, stop_damping, limit)
@@ -161,14 +164,17 @@ def test_chain_add_ons_match_lagrange_with_generalised_forces(cart):
         if cart:
             x, x_dot, u = rng.uniform(-1.3, 1.3) * limit, 3 * rng.normal(), rng.normal(size=1) * 10
             physics = CartChainDynamics(cart_mass=cart_mass, pole_masses=masses, pole_lengths=lengths, gravity=gravity)
-            forces = (JointDamping(damping), EndStops(stiffness, stop_damping, limit))
+            forces = (
+                JointDamping(joint_damping=damping),
+                EndStops(end_stop_stiffness=stiffness, end_stop_damping=stop_damping, track_limit=limit),
+            )
             y = np.concatenate([[x], angles, [x_dot], rates])
             q, q_dot = np.concatenate([[x], angles]), np.concatenate([[x_dot], rates])
             force, torques = u[0] + _stop_force(x, x_dot, stiffness, stop_damping, limit), np.zeros(n)
         else:
             u = rng.normal(size=n) * 10
             physics = NLinkPendulumDynamics(masses=masses, lengths=lengths, gravity=gravity)
-            forces = (JointDamping(damping),)
+            forces = (JointDamping(joint_damping=damping),)
             y, q, q_dot = np.concatenate([angles, rates]), angles, rates
             force, torques = 0.0, u
         ours = np.asarray(_field(ForcedDynamics(physics, forces), jnp.asarray(y), jnp.asarray(u)))
@@ -219,9 +225,13 @@ def test_undamped_end_stops_conserve_energy_with_their_potential(physics, y0):
     assert np.max(np.abs(mechanical - mechanical[0])) > 1e-2 * scale
 
 
+_DAMPER = JointDamping(joint_damping=0.5)
+_DAMPED_STOPS = EndStops(end_stop_stiffness=1e4, end_stop_damping=20.0, track_limit=0.5)
+
+
 @pytest.mark.parametrize(
     "forces",
-    [(JointDamping(0.5),), (EndStops(1e4, 20.0, 0.5),), (JointDamping(0.5), EndStops(1e4, 20.0, 0.5))],
+    [(_DAMPER,), (_DAMPED_STOPS,), (_DAMPER, _DAMPED_STOPS)],
     ids=["joint damping", "damped end stops", "both"],
 )
 @pytest.mark.parametrize(
@@ -234,7 +244,7 @@ def test_undamped_end_stops_conserve_energy_with_their_potential(physics, y0):
 )
 def test_damping_makes_energy_fall(physics, y0, forces):
     dynamics = ForcedDynamics(physics, forces)
-    assert not dynamics.conservative
+    assert not dynamics.conserves_energy
     ys = eqx.filter_jit(_trajectory)(dynamics, y0, 3.0, diffrax.Tsit5())
     energy = np.asarray(jax.vmap(dynamics.energy)(ys))
     # Never rises (up to the solve's error), and falls by a visible amount overall.
@@ -251,7 +261,7 @@ def test_joint_dampers_dissipate_at_their_rate(physics, size):
     # Power balance with zero input: dE/dt = Q . q_dot = -b sum_i (theta_i' - theta_{i-1}')**2,
     # the rate at which the dampers turn energy into heat, at random states.
     b = 0.7
-    dynamics = ForcedDynamics(physics, (JointDamping(b),))
+    dynamics = ForcedDynamics(physics, (JointDamping(joint_damping=b),))
     rng = np.random.default_rng(2)
     for _ in range(10):
         y = jnp.asarray(rng.normal(size=size))
@@ -275,10 +285,23 @@ def test_cartpole_dynamics_is_gymnasiums_four_parameters():
     assert len(equations) <= 40, len(equations)
 
 
+@pytest.mark.parametrize("scene", [ll.CartPole, ll.CartPoleContinuous])
+def test_a_scene_without_add_ons_integrates_gymnasiums_four_leaves(scene):
+    plain = scene()
+    assert len(jax.tree.leaves(eqx.filter(plain.physics, eqx.is_array))) == 4
+    y, u = jnp.array([0.1, -0.2, 0.3, 0.4]), jnp.array([1.0])
+    assert len(jax.make_jaxpr(plain.physics.vector_field)(0.0, y, u).jaxpr.eqns) <= 40
+    # With add-on keywords the scene integrates the forced dynamics, add-ons included.
+    rig = scene(joint_damping=1.0, end_stop_stiffness=1e5, track_limit=2.0)
+    assert isinstance(rig.physics, ForcedDynamics)
+    assert [type(force) for force in rig.physics.forces] == [JointDamping, EndStops]
+    assert float(rig.physics.forces[1].track_limit) == 2.0
+
+
 def test_add_ons_at_zero_leave_the_vector_field_bitwise():
     # A zero force and a zero torque add exact zeros to Gymnasium's arithmetic.
     plain = CartPoleDynamics()
-    idle = ForcedDynamics(plain, (JointDamping(0.0), EndStops()))
+    idle = ForcedDynamics(plain, (JointDamping(joint_damping=0.0), EndStops()))
     ys = jax.random.uniform(jax.random.key(0), (64, 4), minval=-2.0, maxval=2.0)
     forces = jnp.where(jnp.arange(64) % 2 == 0, 10.0, -10.0)[:, None]
     ours = jax.vmap(lambda y, u: idle.vector_field(0.0, y, u))(ys, forces)
@@ -292,14 +315,14 @@ def test_add_ons_at_zero_leave_the_vector_field_bitwise():
 @pytest.mark.parametrize(
     "build, match",
     [
-        (lambda: JointDamping(-1.0), r"joint_damping must be finite and >= 0 \(allowed range \[0, inf\)\)"),
-        (lambda: JointDamping(float("inf")), "joint_damping must be finite"),
+        (lambda: JointDamping(joint_damping=-1.0), r"joint_damping must be finite and >= 0 \(allowed range \[0, inf\)\)"),
+        (lambda: JointDamping(joint_damping=float("inf")), "joint_damping must be finite"),
         (lambda: EndStops(end_stop_stiffness=-1.0), r"end_stop_stiffness .*\[0, inf\)"),
         (lambda: EndStops(end_stop_damping=float("nan")), r"end_stop_damping .*\[0, inf\)"),
         (lambda: EndStops(track_limit=0.0), r"track_limit must be > 0 \(allowed range \(0, inf\]\)"),
         (lambda: EndStops(track_limit=-2.0), "track_limit"),
         (lambda: ForcedDynamics(NLinkPendulumDynamics(), (EndStops(),)), "EndStops.*NLinkPendulumDynamics.*no cart"),
-        (lambda: JointDamping(1.0).check(ll.PendulumDynamics()), "JointDamping.*PendulumDynamics"),
+        (lambda: JointDamping(joint_damping=1.0).check(ll.PendulumDynamics()), "JointDamping.*PendulumDynamics"),
         (lambda: ForcedDynamics(ll.PendulumDynamics(), ()), "ForcedDynamics.*PendulumDynamics"),
     ],
 )
@@ -313,6 +336,8 @@ def test_add_ons_accept_infinite_track_and_traced_values():
     # Built under vmap the values are tracers: let through, batched leaves come out.
     stops = eqx.filter_vmap(lambda k: EndStops(end_stop_stiffness=k))(jnp.array([1.0, 2.0]))
     assert stops.end_stop_stiffness.shape == (2,)
-    damped = eqx.filter_vmap(lambda b: ForcedDynamics(CartPoleDynamics(), (JointDamping(b),)))(jnp.array([0.0, 1.0]))
+    damped = eqx.filter_vmap(lambda b: ForcedDynamics(CartPoleDynamics(), (JointDamping(joint_damping=b),)))(
+        jnp.array([0.0, 1.0])
+    )
     assert damped.forces[0].joint_damping.shape == (2,)
     assert ForcedDynamics(CartPoleDynamics(), (EndStops(),)).velocity_indices == (1, 3)

@@ -84,7 +84,7 @@ def test_fixed_step_implicit_needs_explicit_root_finder_tolerances():
 def test_joint_damping_eigenvalue():
     # b = 300 on the default cart-pole: the fast eigenvalue is -b over the pole's effective
     # inertia about the hinge with the cart free, m l^2 (4/3 - m / (M + m)): about -1e4.
-    dynamics = ll.ForcedDynamics(ll.CartPoleDynamics(), (ll.JointDamping(300.0),))
+    dynamics = ll.ForcedDynamics(ll.CartPoleDynamics(), (ll.JointDamping(joint_damping=300.0),))
     jacobian = jax.jacfwd(lambda y: dynamics.vector_field(0.0, y, jnp.zeros(1)))(jnp.zeros(4))
     fastest = float(np.min(np.linalg.eigvals(np.asarray(jacobian)).real))
     m, l, total = 0.1, 0.5, 1.1

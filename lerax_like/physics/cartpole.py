@@ -2,7 +2,7 @@ from typing import ClassVar
 
 import jax.numpy as jnp
 
-from .._checks import as_parameter, check_positive
+from .._fields import POSITIVE, parameter
 from .._types import Array, Float, Input, Scalar, ScalarLike, State
 from ._base import AbstractChainDynamics
 
@@ -27,29 +27,10 @@ class CartPoleDynamics(AbstractChainDynamics):
     velocity_indices: ClassVar[tuple[int, ...]] = (1, 3)
     has_cart: ClassVar[bool] = True
 
-    gravity: Scalar
-    cart_mass: Scalar
-    pole_mass: Scalar
-    half_length: Scalar
-
-    def __init__(
-        self,
-        gravity: ScalarLike = 9.8,
-        cart_mass: ScalarLike = 1.0,
-        pole_mass: ScalarLike = 0.1,
-        half_length: ScalarLike = 0.5,
-    ):
-        for name, value in [
-            ("gravity", gravity),
-            ("cart_mass", cart_mass),
-            ("pole_mass", pole_mass),
-            ("half_length", half_length),
-        ]:
-            check_positive(value, name)
-        self.gravity = as_parameter(gravity, "gravity")
-        self.cart_mass = as_parameter(cart_mass, "cart_mass")
-        self.pole_mass = as_parameter(pole_mass, "pole_mass")
-        self.half_length = as_parameter(half_length, "half_length")
+    gravity: Scalar = parameter(9.8, POSITIVE)
+    cart_mass: Scalar = parameter(1.0, POSITIVE)
+    pole_mass: Scalar = parameter(0.1, POSITIVE)
+    half_length: Scalar = parameter(0.5, POSITIVE)
 
     @property
     def total_mass(self) -> Scalar:

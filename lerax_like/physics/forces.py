@@ -7,7 +7,9 @@ is a generalised force `Q(y)` on the coordinates `q` of an `AbstractChainDynamic
 `M(q) q'' = u + Q - C(q, q') - G(q)`, the way diffrax composes terms. A scene built
 without add-ons carries none of this and computes none of it.
 
-    dynamics = ForcedDynamics(CartPoleDynamics(), (JointDamping(1.0), EndStops(1e5)))
+    dynamics = ForcedDynamics(CartPoleDynamics(), (JointDamping(joint_damping=1.0), EndStops(end_stop_stiffness=1e5)))
+
+Scenes build this for themselves from flat keywords (`CartPole(joint_damping=1.0)`).
 """
 
 import abc
@@ -16,18 +18,19 @@ from typing import ClassVar, final
 import equinox as eqx
 import jax.numpy as jnp
 
-from .._checks import as_parameter, check_nonnegative, check_positive_or_inf
+from .._fields import NONNEGATIVE, POSITIVE_OR_INF, AbstractParametrised, parameter
 from .._types import Array, Float, Input, Scalar, ScalarLike, State
 from ._base import AbstractChainDynamics, AbstractConservativeDynamics, AbstractDynamics
 
 
-class AbstractGeneralisedForce(eqx.Module):
+class AbstractGeneralisedForce(AbstractParametrised):
     """A generalised force on the coordinates `q` of a cart or a chain.
 
     Subclasses declare `conservative` (whether the force conserves energy, its potential
     energy included) and `requires_cart` (whether it acts on the cart's coordinate `x`,
-    so that dynamics without a cart are refused), and implement `generalised_force` and
-    `potential_energy`.
+    so that dynamics without a cart are refused), declare their parameters as fields
+    (`parameter(default, range)`: built by keyword, checked by name), and implement
+    `generalised_force` and `potential_energy`.
     """
 
     conservative: eqx.AbstractClassVar[bool]
@@ -55,16 +58,6 @@ class AbstractGeneralisedForce(eqx.Module):
             raise ValueError(f"{name} acts on a cart's position, and {target} has no cart")
 
 
-def _parameter(check, name: str):
-    """A field converter: check a concrete value (tracers pass) and make it a parameter leaf."""
-
-    def convert(value) -> Scalar:
-        check(value, name)
-        return as_parameter(value, name)
-
-    return convert
-
-
 @final
 class JointDamping(AbstractGeneralisedForce):
     """Viscous friction in every hinge of a chain, `joint_damping` `b` in N m s/rad.
@@ -82,7 +75,7 @@ class JointDamping(AbstractGeneralisedForce):
     conservative: ClassVar[bool] = False
     requires_cart: ClassVar[bool] = False
 
-    joint_damping: Scalar = eqx.field(converter=_parameter(check_nonnegative, "joint_damping"))
+    joint_damping: Scalar = parameter(check=NONNEGATIVE)
 
     def generalised_force(self, dynamics: AbstractChainDynamics, y: State) -> Float[Array, " q"]:
         _, rates = dynamics.coordinates(y)
@@ -116,11 +109,9 @@ class EndStops(AbstractGeneralisedForce):
     conservative: ClassVar[bool] = False  # the damper dissipates unless end_stop_damping is 0
     requires_cart: ClassVar[bool] = True
 
-    end_stop_stiffness: Scalar = eqx.field(
-        default=0.0, converter=_parameter(check_nonnegative, "end_stop_stiffness")
-    )
-    end_stop_damping: Scalar = eqx.field(default=0.0, converter=_parameter(check_nonnegative, "end_stop_damping"))
-    track_limit: Scalar = eqx.field(default=2.4, converter=_parameter(check_positive_or_inf, "track_limit"))
+    end_stop_stiffness: Scalar = parameter(0.0, NONNEGATIVE)
+    end_stop_damping: Scalar = parameter(0.0, NONNEGATIVE)
+    track_limit: Scalar = parameter(2.4, POSITIVE_OR_INF)
 
     def _penetrations(self, x: Scalar) -> tuple[Scalar, Scalar]:
         """How far the cart is past the left and the right end stop (>= 0)."""
@@ -145,23 +136,24 @@ class EndStops(AbstractGeneralisedForce):
         return 0.5 * self.end_stop_stiffness * (left**2 + right**2)
 
 
-def _as_forces(forces) -> tuple[AbstractGeneralisedForce, ...]:
-    return tuple(forces)
-
-
 @final
-class ForcedDynamics(AbstractDynamics):
+class ForcedDynamics(AbstractConservativeDynamics):
     """A cart or a chain with generalised-force add-ons: `dynamics` plus the sum of `forces`.
 
     The vector field is `dynamics.forced_vector_field` with `Q = sum_f f.generalised_force`
     added to the input's generalised force; the energy is the dynamics' plus the
-    add-ons' potential energies, conserved with zero input when `conservative`.
+    add-ons' potential energies, conserved with zero input when `conserves_energy`
+    (the dynamics conserve theirs and every add-on is conservative).
     Construction refuses an add-on that cannot act on `dynamics` (end stops without a
     cart, say), naming both.
     """
 
     dynamics: AbstractChainDynamics
-    forces: tuple[AbstractGeneralisedForce, ...] = eqx.field(converter=_as_forces)
+    forces: tuple[AbstractGeneralisedForce, ...]
+
+    def __init__(self, dynamics: AbstractChainDynamics, forces=()):
+        self.dynamics = dynamics
+        self.forces = tuple(forces)
 
     def __check_init__(self):
         if not isinstance(self.dynamics, AbstractChainDynamics):
@@ -181,11 +173,9 @@ class ForcedDynamics(AbstractDynamics):
         return self.dynamics.velocity_indices
 
     @property
-    def conservative(self) -> bool:
-        """Whether the energy is conserved with zero input: the dynamics' and every add-on's."""
-        return isinstance(self.dynamics, AbstractConservativeDynamics) and all(
-            force.conservative for force in self.forces
-        )
+    def conserves_energy(self) -> bool:
+        """Whether `energy` is conserved with zero input: the dynamics' and every add-on's."""
+        return self.dynamics.conserves_energy and all(force.conservative for force in self.forces)
 
     def generalised_force(self, y: State) -> Float[Array, " q"]:
         """The sum of the add-ons' generalised forces on the coordinates `q` of `dynamics`."""
