@@ -1,6 +1,7 @@
 """Domain randomisation: a policy trained over a batch of pole masses vs one trained on the nominal mass.
 
-The recipe is `lerax_like.control.domain_randomisation` (the notebook's and the test's):
+The recipe is the notebook's (`notebooks/domain_randomisation.ipynb`, its cell tagged
+`recipe`, run here as it stands there so that the two cannot drift apart):
 an MLP (2 x 32) trained through the simulator on 256 vmapped CartPoleContinuous envs,
 smooth reward minus a cost on the cart, thresholds at infinity, a horizon curriculum of
 50, 100 and 200 steps (60, 30 and 30 Adam iterations). The randomised batch has per-env
@@ -21,6 +22,7 @@ import pathlib
 import platform
 import sys
 import time
+import types
 
 import equinox as eqx
 import jax
@@ -32,9 +34,19 @@ jax.config.update("jax_enable_x64", True)
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
 
 import lerax_like as ll  # noqa: E402
-from lerax_like.control import domain_randomisation as dr  # noqa: E402
+
+NOTEBOOK = pathlib.Path(__file__).resolve().parents[1] / "notebooks" / "domain_randomisation.ipynb"
 
 MASSES = (0.01, 0.1, 0.4, 1.0, 2.0, 2.5, 3.0, 4.0, 6.4, 8.0, 9.0, 10.0, 11.0, 12.8, 16.0)
+
+
+def notebook_recipe() -> types.SimpleNamespace:
+    """The names defined by the notebook's cell tagged `recipe` (constants, training, evaluation)."""
+    cells = json.loads(NOTEBOOK.read_text())["cells"]
+    (source,) = ["".join(c["source"]) for c in cells if "recipe" in c.get("metadata", {}).get("tags", [])]
+    namespace: dict = {}
+    exec(compile(source, f"{NOTEBOOK}:recipe", "exec"), namespace)  # the cell holds its own imports
+    return types.SimpleNamespace(**namespace)
 
 
 class LinearPolicy(eqx.Module):
@@ -67,6 +79,7 @@ def main():
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3, 4, 5])
     parser.add_argument("--num-envs", type=int, default=256)
     args = parser.parse_args()
+    dr = notebook_recipe()
     low, high = dr.TRAINING_MASS_RANGE
     runs = []
     for seed in args.seeds:
