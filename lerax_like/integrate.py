@@ -14,7 +14,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import optimistix
-# diffrax's marker for "take this tolerance from the step-size controller" (not re-exported).
+# diffrax's marker for "take this tolerance from the step-size controller": diffrax (0.7)
+# exports no public name for it, so this one private import stays.
 from diffrax._root_finder import use_stepsize_tol
 
 from ._checks import check_count

@@ -98,8 +98,9 @@ def _powers_of_two(n: int) -> tuple[int, ...]:
     return tuple(2**i for i in range(n))
 
 
-def _tolerance_pairs(exponents: Sequence[int]) -> tuple[tuple[float, float], ...]:
-    # DiffEqDevTools' convention: atol three orders below rtol.
+def tolerance_pairs(exponents: Sequence[int]) -> tuple[tuple[float, float], ...]:
+    """`(rtol, atol)` pairs `(10**-e, 10**-(e + 3))`: DiffEqDevTools' convention, atol three
+    orders below rtol."""
     return tuple((10.0**-e, 10.0 ** -(e + 3)) for e in exponents)
 
 
@@ -111,7 +112,7 @@ def default_sweeps(*, quick: bool = False) -> tuple[SolverSweep, ...]:
         return (
             SolverSweep("euler", substeps=(16, 64, 256)),
             SolverSweep("rk4", substeps=(1, 2, 4)),
-            SolverSweep("tsit5", tolerances=_tolerance_pairs([4, 7, 9, 11])),
+            SolverSweep("tsit5", tolerances=tolerance_pairs([4, 7, 9, 11])),
         )
     return (
         SolverSweep("euler", substeps=_powers_of_two(11)),
@@ -119,9 +120,9 @@ def default_sweeps(*, quick: bool = False) -> tuple[SolverSweep, ...]:
         SolverSweep("midpoint", substeps=_powers_of_two(8)),
         SolverSweep("rk4", substeps=_powers_of_two(6)),
         SolverSweep("tsit5", substeps=_powers_of_two(4)),
-        SolverSweep("tsit5", tolerances=_tolerance_pairs(range(4, 13))),
-        SolverSweep("dopri5", tolerances=_tolerance_pairs(range(4, 13))),
-        SolverSweep("dopri8", tolerances=_tolerance_pairs(range(4, 13))),
+        SolverSweep("tsit5", tolerances=tolerance_pairs(range(4, 13))),
+        SolverSweep("dopri5", tolerances=tolerance_pairs(range(4, 13))),
+        SolverSweep("dopri8", tolerances=tolerance_pairs(range(4, 13))),
     )
 
 
