@@ -256,7 +256,7 @@ def run(env, y0, action, steps_array):
 
     def body(carry, _):
         y, alive = carry
-        raw, info = env.integrator.integrate(env.dynamics.vector_field, y, u, env.dt)
+        raw, info = env.integrator.integrate(env.physics.vector_field, y, u, env.dt)
         ok = info["solver_ok"] & alive
         next_y = jnp.where(ok, raw, y)
         record = (next_y, ok, jnp.all(jnp.isfinite(raw)), info["solver_steps"])

@@ -25,7 +25,7 @@ def _run(env, y0, actions, key):
         next_state, observation, reward, terminated, truncated, info = env.step(state, action, key=step_key)
         # The raw solve from the pre-step state, outside the env's safety net.
         raw, _ = env.integrator.integrate(
-            env.dynamics.vector_field, state.y, env.physical_input(action), env.dt
+            env.physics.vector_field, state.y, env.physical_input(action), env.dt
         )
         record = dict(
             observation=observation, reward=reward, terminated=terminated, truncated=truncated,
