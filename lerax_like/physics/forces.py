@@ -7,7 +7,9 @@ is a generalised force `Q(y)` on the coordinates `q` of an `AbstractChainDynamic
 `M(q) q'' = u + Q - C(q, q') - G(q)`, the way diffrax composes terms. A scene built
 without add-ons carries none of this and computes none of it.
 
-    dynamics = ForcedDynamics(CartPoleDynamics(), (JointDamping(joint_damping=1.0), EndStops(end_stop_stiffness=1e5)))
+    rig = ForcedDynamics(
+        CartPoleDynamics(), (JointDamping(joint_damping=1.0), EndStops(end_stop_stiffness=1e5))
+    )
 
 Scenes build this for themselves from flat keywords (`CartPole(joint_damping=1.0)`).
 """
@@ -179,6 +181,8 @@ class ForcedDynamics(AbstractConservativeDynamics):
 
     def generalised_force(self, y: State) -> Float[Array, " q"]:
         """The sum of the add-ons' generalised forces on the coordinates `q` of `dynamics`."""
+        if not self.forces:
+            return jnp.zeros_like(self.dynamics.coordinates(y)[0])
         total = self.forces[0].generalised_force(self.dynamics, y)
         for force in self.forces[1:]:
             total = total + force.generalised_force(self.dynamics, y)
