@@ -1,5 +1,5 @@
 import math
-from typing import ClassVar, Literal
+from typing import ClassVar, Literal, final
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -64,6 +64,7 @@ _CARTPOLE_ATTRIBUTES = (
 )
 
 
+@final
 class CartPole(AbstractCartPole):
     """Balance a pole on a cart by pushing the cart left or right (Gymnasium's CartPole-v1).
 
@@ -135,6 +136,7 @@ class CartPole(AbstractCartPole):
         return jnp.ones((), dtype=self.dt.dtype)
 
 
+@final
 class CartPoleContinuous(AbstractCartPole):
     """CartPole with a continuous force: action `a` in `[-1, 1]` pushes with `a * force_mag` newtons.
 

@@ -1,4 +1,4 @@
-from typing import ClassVar
+from typing import ClassVar, final
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -64,6 +64,7 @@ class AbstractMountainCar(AbstractEnv):
 
 
 
+@final
 class MountainCar(AbstractMountainCar):
     """Drive an underpowered car up a hill by rocking it (Gymnasium's MountainCar-v0).
 
@@ -141,6 +142,7 @@ class MountainCar(AbstractMountainCar):
         return -jnp.ones((), dtype=self.dt.dtype)
 
 
+@final
 class MountainCarContinuous(AbstractMountainCar):
     """Drive an underpowered car up a hill with a continuous throttle (MountainCarContinuous-v0).
 

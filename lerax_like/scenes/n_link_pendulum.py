@@ -1,5 +1,5 @@
 import math
-from typing import ClassVar
+from typing import ClassVar, final
 
 import jax.numpy as jnp
 
@@ -11,6 +11,7 @@ from ..physics.chain import NLinkPendulumDynamics
 from ..spaces import Box
 
 
+@final
 class NLinkPendulum(AbstractEnv):
     """A chain of n uniform rods hanging from a fixed pivot, with a motor at every joint.
 

@@ -1,5 +1,5 @@
 import math
-from typing import ClassVar
+from typing import ClassVar, final
 
 import jax.numpy as jnp
 
@@ -11,6 +11,7 @@ from ..physics.planar_quadrotor import PlanarQuadrotorDynamics
 from ..spaces import Box
 
 
+@final
 class PlanarQuadrotor(AbstractEnv):
     """Hold a planar quadrotor hovering at the origin with its two rotors' thrusts.
 

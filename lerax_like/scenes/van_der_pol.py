@@ -1,4 +1,4 @@
-from typing import ClassVar
+from typing import ClassVar, final
 
 import jax.numpy as jnp
 
@@ -13,6 +13,7 @@ from ..spaces import Box
 _ERROR_CAP = 100.0
 
 
+@final
 class VanDerPol(AbstractEnv):
     """Hold a forced Van der Pol oscillator at a target amplitude; stiff for large `mu`.
 
