@@ -62,7 +62,6 @@ class Acrobot(AbstractEnv):
     """
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
-    stiff: ClassVar[bool] = False
     gymnasium: ClassVar[GymnasiumSpec] = GymnasiumSpec(
         name="Acrobot-v1",
         max_episode_steps=500,

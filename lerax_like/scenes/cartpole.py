@@ -20,7 +20,6 @@ class AbstractCartPole(AbstractEnv):
     """What the discrete and continuous cart-poles share: physics, add-ons, start, observation, end."""
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
-    stiff: ClassVar[bool] = False
     addons: ClassVar[tuple[type, ...]] = (JointDamping, EndStops)
 
     dynamics: eqx.AbstractVar[CartPoleDynamics]
@@ -165,7 +164,6 @@ class CartPoleContinuous(AbstractCartPole):
     Those of `CartPole` (the add-ons included), plus `reward` and `action_cost` (>= 0).
     """
 
-    gymnasium: ClassVar[None] = None
     # `reward` is the keyword users know; the field is `reward_kind`, as `reward` is the method.
     aliases: ClassVar[tuple[tuple[str, str], ...]] = (("reward", "reward_kind"),)
 

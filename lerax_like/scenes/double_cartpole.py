@@ -66,8 +66,6 @@ class DoubleCartPole(AbstractEnv):
     """
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
-    stiff: ClassVar[bool] = False
-    gymnasium: ClassVar[None] = None
     addons: ClassVar[tuple[type, ...]] = (JointDamping, EndStops)
 
     task: Literal["balance", "swing_up"] = option("balance", ("balance", "swing_up"))

@@ -12,11 +12,16 @@ from ..physics import MountainCarDynamics
 from ..spaces import Box, Discrete
 
 
+def _road_attributes(engine: str) -> tuple[tuple[str, str], ...]:
+    """Gymnasium's attribute names on its mountain cars: the same as the scenes' own."""
+    names = ("min_position", "max_position", "max_speed", "goal_position", "goal_velocity", engine)
+    return (("gravity", "dynamics.gravity"), *((name, name) for name in names))
+
+
 class AbstractMountainCar(AbstractEnv):
     """What the discrete and continuous mountain cars share: road, start, projection, goal."""
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
-    stiff: ClassVar[bool] = False
 
     dynamics: eqx.AbstractVar[MountainCarDynamics]
     min_position: eqx.AbstractVar[Scalar]
@@ -104,15 +109,7 @@ class MountainCar(AbstractMountainCar):
         max_episode_steps=200,
         reward_threshold=-110.0,
         renderer="gymnasium.envs.classic_control.mountain_car:MountainCarEnv",
-        attributes=(
-            ("gravity", "dynamics.gravity"),
-            ("force", "force"),
-            ("min_position", "min_position"),
-            ("max_position", "max_position"),
-            ("max_speed", "max_speed"),
-            ("goal_position", "goal_position"),
-            ("goal_velocity", "goal_velocity"),
-        ),
+        attributes=_road_attributes("force"),
     )
 
     dynamics: MountainCarDynamics = dynamics(MountainCarDynamics)
@@ -179,15 +176,7 @@ class MountainCarContinuous(AbstractMountainCar):
         max_episode_steps=999,
         reward_threshold=90.0,
         renderer="gymnasium.envs.classic_control.continuous_mountain_car:Continuous_MountainCarEnv",
-        attributes=(
-            ("gravity", "dynamics.gravity"),
-            ("power", "power"),
-            ("min_position", "min_position"),
-            ("max_position", "max_position"),
-            ("max_speed", "max_speed"),
-            ("goal_position", "goal_position"),
-            ("goal_velocity", "goal_velocity"),
-        ),
+        attributes=_road_attributes("power"),
     )
 
     dynamics: MountainCarDynamics = dynamics(MountainCarDynamics)

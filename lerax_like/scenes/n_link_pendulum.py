@@ -50,8 +50,6 @@ class NLinkPendulum(AbstractEnv):
     """
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
-    stiff: ClassVar[bool] = False
-    gymnasium: ClassVar[None] = None
 
     dynamics: NLinkPendulumDynamics = dynamics(NLinkPendulumDynamics)
     integrator: Integrator = integrator("rk4")

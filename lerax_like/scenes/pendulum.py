@@ -50,7 +50,6 @@ class Pendulum(AbstractEnv):
     """
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
-    stiff: ClassVar[bool] = False
     gymnasium: ClassVar[GymnasiumSpec] = GymnasiumSpec(
         name="Pendulum-v1",
         max_episode_steps=200,

@@ -50,8 +50,6 @@ class PlanarQuadrotor(AbstractEnv):
     """
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
-    stiff: ClassVar[bool] = False
-    gymnasium: ClassVar[None] = None
 
     dynamics: PlanarQuadrotorDynamics = dynamics(PlanarQuadrotorDynamics)
     integrator: Integrator = integrator("rk4")

@@ -56,7 +56,6 @@ class VanDerPol(AbstractEnv):
     stochastic: ClassVar[bool] = False  # nothing random but the start
     # Stiff from mu of about 100: the studies take their reference from SciPy's Radau.
     stiff: ClassVar[bool] = True
-    gymnasium: ClassVar[None] = None
 
     dynamics: VanDerPolDynamics = dynamics(VanDerPolDynamics)
     integrator: Integrator = integrator("tsit5")
