@@ -99,6 +99,13 @@ def chain_potential_energy(
     return gravity * jnp.sum(first_moment * jnp.cos(angles))
 
 
+def _lagrange_derivative(dynamics, y: State, forces: Float[Array, " q"]) -> State:
+    """`[q_dot, q'']` with `M(q) q'' = forces - C(q, q') - G(q)`: both chains' vector field."""
+    _, velocities = dynamics.coordinates(y)
+    accelerations = jnp.linalg.solve(dynamics.mass_matrix(y), forces - dynamics.bias_forces(y))
+    return jnp.concatenate([velocities, accelerations])
+
+
 class NLinkPendulumDynamics(AbstractChainDynamics):
     """n uniform rods in a chain from a fixed pivot, with a torque at every joint.
 
@@ -133,15 +140,14 @@ class NLinkPendulumDynamics(AbstractChainDynamics):
     def coordinates(self, y: State) -> tuple[Float[Array, " n"], Float[Array, " n"]]:
         return y[: self.n_links], y[self.n_links :]
 
+    def bias_forces(self, y: State) -> Float[Array, " n"]:
+        return chain_bias_forces(self.masses, self.lengths, self.gravity, *self.coordinates(y))
+
     def forced_vector_field(
         self, t: ScalarLike, y: State, u: Input, generalised_force: Float[Array, " n"]
     ) -> State:
         del t
-        angles, angular_velocities = self.coordinates(y)
-        bias = chain_bias_forces(self.masses, self.lengths, self.gravity, angles, angular_velocities)
-        forces = self.generalised_forces(u) + generalised_force
-        accelerations = jnp.linalg.solve(self.mass_matrix(y), forces - bias)
-        return jnp.concatenate([angular_velocities, accelerations])
+        return _lagrange_derivative(self, y, self.generalised_forces(u) + generalised_force)
 
     def vector_field(self, t: ScalarLike, y: State, u: Input) -> State:
         return self.forced_vector_field(t, y, u, jnp.zeros((self.n_links,), dtype=y.dtype))
@@ -194,17 +200,17 @@ class CartChainDynamics(AbstractChainDynamics):
     def coordinates(self, y: State) -> tuple[Float[Array, " q"], Float[Array, " q"]]:
         return y[: 1 + self.n_links], y[1 + self.n_links :]
 
+    def bias_forces(self, y: State) -> Float[Array, " q"]:
+        positions, velocities = self.coordinates(y)
+        return chain_bias_forces(
+            self.pole_masses, self.pole_lengths, self.gravity, positions[1:], velocities[1:], cart=True
+        )
+
     def forced_vector_field(
         self, t: ScalarLike, y: State, u: Input, generalised_force: Float[Array, " q"]
     ) -> State:
         del t
-        positions, velocities = self.coordinates(y)
-        bias = chain_bias_forces(
-            self.pole_masses, self.pole_lengths, self.gravity, positions[1:], velocities[1:], cart=True
-        )
-        forces = generalised_force.at[0].add(u[0])
-        accelerations = jnp.linalg.solve(self.mass_matrix(y), forces - bias)
-        return jnp.concatenate([velocities, accelerations])
+        return _lagrange_derivative(self, y, generalised_force.at[0].add(u[0]))
 
     def vector_field(self, t: ScalarLike, y: State, u: Input) -> State:
         return self.forced_vector_field(t, y, u, jnp.zeros((1 + self.n_links,), dtype=y.dtype))
