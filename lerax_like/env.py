@@ -319,7 +319,7 @@ class AbstractEnv(eqx.Module):
         observation_ok = jnp.all(jnp.isfinite(observation))
         reward_ok = jnp.isfinite(reward)
         ok = info["solver_ok"] & observation_ok & reward_ok
-        next_state = jax.tree.map(lambda new, old: jnp.where(ok, new, old), next_state, EnvState(state.y, next_state.steps))
+        next_state = EnvState(y=jnp.where(ok, next_state.y, state.y), steps=next_state.steps)
         observation = jnp.where(ok, observation, observe(state))
         reward = jnp.where(ok, reward, jnp.asarray(self.worst_reward, reward.dtype))
         terminated = self.terminal(next_state, key=keys.terminal) | ~ok
