@@ -48,7 +48,8 @@ from .._types import Array, BoolScalar, Float, Scalar
 from ..env import AbstractEnv, EnvState
 from ..integrate import SOLVER_PRESETS
 from ..spaces import Box
-from .scenes import SCENES, make_scene
+from ..scenes import SCENES
+from .scenes import make_scene
 
 
 POLICIES: tuple[str, ...] = ("open_loop", "linear_feedback")
@@ -234,7 +235,7 @@ def build_env(config: GradientVarianceConfig, solver: str, dtype=None) -> Abstra
             f"{config.scene} has discrete actions; the gradient-variance study needs continuous ones "
             "(use CartPoleContinuous for CartPole)"
         )
-    if type(env).project is not AbstractEnv.project:
+    if type(env).projects_state():
         raise ValueError(
             f"{config.scene} clips or wraps its state after every step (its `project`), so the rollout "
             "cost has kinks that are no part of the physics; the study takes scenes that do not"
@@ -450,7 +451,8 @@ def estimate_gradients(
     def flat(x):
         return np.asarray(x, dtype=np.float64).reshape(x.shape[0], -1)[:, active]
 
-    f0, ok0 = evaluators("values", theta[None], horizon)
+    # At the compiled batch size, which the reference reuses: one compilation.
+    f0, ok0 = evaluators("values", jnp.broadcast_to(theta, (samples, *theta.shape)), horizon)
     if not bool(ok0[0]):
         raise RuntimeError("the solve of the nominal rollout failed; check the solver and the scene's settings")
     f0 = float(f0[0])
