@@ -127,7 +127,8 @@ def _gradient_variance(arguments) -> int:
                       f"{c['measured_horizon']} (measured), {c['predicted_horizon']} (predicted); agree: {c['agree']}")
             if "float32_first_digit_lost_horizon" in entry:
                 print(f"    float32 loses the leading digit at H = {entry['float32_first_digit_lost_horizon']} "
-                      f"(searched up to {entry['float32_horizons_searched']})")
+                      f"(searched up to {entry['float32_horizons_searched']}; relative error there "
+                      f"{entry['float32_relative_error_at_longest']:.1e})")
         print()
     print(f"study took {elapsed:.1f} s; wrote " + ", ".join(paths.values()))
     return 0
