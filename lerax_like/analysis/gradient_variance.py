@@ -204,14 +204,18 @@ class GradientVarianceConfig:
         if quick:
             settings.update(horizons=(10, 30, 100), samples=256, reference_samples=8192, precision_horizon=200)
         else:
-            settings.update(horizons=(10, 20, 50, 100, 200), samples=1024, reference_samples=32768,
-                            sigmas=(0.01, 0.1), precision_horizon=500)
+            settings.update(horizons=(10, 20, 50, 100, 200), samples=512, reference_samples=8192,
+                            precision_horizon=400)
         settings.update(overrides)
         return cls(**settings)
 
 
 @dataclasses.dataclass
 class GradientVarianceResult:
+    """A study's `rows` (see `GRADIENT_VARIANCE_CSV_COLUMNS`; each also holds its
+    `estimate`) and its `record`: the configuration, the Lyapunov exponents, crossovers,
+    float32 digit loss, feedback gains and the reference's description."""
+
     config: GradientVarianceConfig
     rows: list[dict[str, Any]]
     record: dict[str, Any]
