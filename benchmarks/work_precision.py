@@ -17,7 +17,7 @@ import sys
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir))
 
-from lerax_like.analysis import SCENES, STIFF_SCENES, StudyConfig, run_study  # noqa: E402
+from lerax_like.analysis import SCENES, StudyConfig, run_study  # noqa: E402
 from lerax_like.analysis.report import cheapest_at, format_orders, format_table, write_study  # noqa: E402
 from lerax_like.analysis.study import environment_record  # noqa: E402
 
@@ -34,7 +34,7 @@ def main(argv=None) -> int:
     for scene in arguments.scenes:
         date = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
         machine = environment_record()
-        stiff = scene in STIFF_SCENES
+        stiff = SCENES[scene].stiff
         repeats = arguments.repeats or (3 if stiff else 15)
         config = StudyConfig.default(scene, repeats=repeats, check_method="DOP853" if stiff else "Radau")
         started = datetime.datetime.now()

@@ -36,14 +36,14 @@ def _solvers_from(arguments, command: str):
 def _study(arguments) -> int:
     from .analysis import StudyConfig, run_study, sweeps_for, write_study
     from .analysis.report import PLOT_HINT, cheapest_at, format_orders, format_table, matplotlib_available
-    from .analysis.scenes import STIFF_SCENES
+    from .analysis.scenes import SCENES
 
     overrides = {}
     if arguments.seed is not None:
         overrides["seed"] = arguments.seed
     solvers = _solvers_from(arguments, "study")
     if solvers is not None:
-        overrides["sweeps"] = sweeps_for(solvers, quick=arguments.quick, stiff=arguments.scene in STIFF_SCENES)
+        overrides["sweeps"] = sweeps_for(solvers, quick=arguments.quick, stiff=SCENES[arguments.scene].stiff)
     config = StudyConfig.default(arguments.scene, quick=arguments.quick, **overrides)
     plot = not arguments.no_plot and matplotlib_available()
     start = time.perf_counter()

@@ -154,8 +154,8 @@ def test_dense_reference_agrees_with_radau(getkey):
 
 def test_a_diffrax_solver_object_runs_through_every_output(tmp_path):
     # `SolverSweep(diffrax.Bosh3())` used to crash the table, the orders and the JSON.
-    sweeps = (SolverSweep(diffrax.Bosh3(), substeps=(2, 4)), SolverSweep(diffrax.Bosh3, tolerances=((1e-6, 1e-9),)))
-    config = StudyConfig(scene="CartPole", sweeps=sweeps, schedules=("zero",), horizon=10, batch=2, repeats=1)
+    sweeps = (SolverSweep(diffrax.Bosh3(), substeps=(2,)), SolverSweep(diffrax.Bosh3, tolerances=((1e-6, 1e-9),)))
+    config = StudyConfig(scene="CartPole", sweeps=sweeps, schedules=("zero",), horizon=5, batch=1, repeats=1)
     result = run_study(config, progress=False)
     assert {row["solver"] for row in result.rows} == {"Bosh3"}
     assert {row["label"] for row in result.rows} == {"Bosh3", "Bosh3 (PID)"}

@@ -96,5 +96,8 @@ def convergence_orders(rows: Iterable[dict[str, Any]], *, ceiling: float = 1e-2)
             if all(math.isnan(v) for v in values):
                 continue
             entry[f"{name}_order"], _ = fit_order(step_sizes, values, floor=ROUNDOFF_FLOOR, ceiling=ceiling)
+        for name, value in entry.items():
+            if name.endswith("order") and isinstance(value, float) and math.isnan(value):
+                entry[name] = None  # JSON null, not NaN: nothing was measured
         orders.append(entry)
     return orders
