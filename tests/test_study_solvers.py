@@ -19,6 +19,7 @@ import lerax_like as ll
 from lerax_like.analysis import SolverSweep, StudyConfig, dense_reference_trajectories, run_study
 from lerax_like.analysis.convergence import convergence_orders
 from lerax_like.analysis.report import format_orders, format_table, write_study
+from lerax_like.cli import main
 
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -121,6 +122,7 @@ def test_dense_errors_bound_the_step_errors(user_solver_study):
         assert 0 < l2_error <= linf_error, row
 
 
+@pytest.mark.slow
 def test_dense_reference_agrees_with_radau(getkey):
     # The study's dense reference (DOP853's continuous extension) against Radau IIA's,
     # and against Radau restarted at every grid point (no interpolation at all).
@@ -152,6 +154,7 @@ def test_dense_reference_agrees_with_radau(getkey):
                 assert np.max(np.abs(y - expected)) < 1e-10, (b, k, j)
 
 
+@pytest.mark.slow
 def test_a_diffrax_solver_object_runs_through_every_output(tmp_path):
     # `SolverSweep(diffrax.Bosh3())` used to crash the table, the orders and the JSON.
     sweeps = (SolverSweep(diffrax.Bosh3(), substeps=(2,)), SolverSweep(diffrax.Bosh3, tolerances=((1e-6, 1e-9),)))
@@ -192,6 +195,7 @@ def test_orders_out_of_the_asymptotic_range_are_said_in_words():
     assert entry["order"] is None and "floor" in entry["note"]
 
 
+@pytest.mark.slow
 def test_study_without_matplotlib(tmp_path):
     prelude = "import sys\nsys.modules['matplotlib'] = None  # import matplotlib now raises ImportError\n"
     completed = _run_cli(
@@ -213,8 +217,11 @@ def test_solver_listing_shows_orders():
     assert lines["rk4"][1] == "4" and lines["dopri8"][1] == "8" and lines["kvaerno5"][4] == "implicit"
 
 
-def test_bad_solver_names_are_usage_errors():
+@pytest.mark.parametrize("command", ["study", "gradients"])
+def test_bad_solver_names_are_usage_errors(command, capsys):
     for spec, words in [("rk5", "unknown solver"), ("no_such_module:X", "cannot import"),
                         ("diffrax:NoSuchSolver", "has no attribute"), ("math:pi", "no diffrax solver")]:
-        completed = _run_cli(["study", "CartPole", "--quick", "--solver", spec])
-        assert completed.returncode == 2 and words in completed.stderr, (spec, completed.stderr)
+        with pytest.raises(SystemExit) as exit_info:
+            main([command, "CartPole", "--quick", "--solver", spec])
+        assert exit_info.value.code == 2
+        assert words in capsys.readouterr().err, spec
