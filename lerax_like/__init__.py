@@ -13,8 +13,14 @@ from .integrate import (
     RK4 as RK4,
     SemiImplicitEuler as SemiImplicitEuler,
     SOLVER_PRESETS as SOLVER_PRESETS,
+    SOLVERS as SOLVERS,
+    SolverPreset as SolverPreset,
+    describe_solver as describe_solver,
     has_error_estimate as has_error_estimate,
     make_integrator as make_integrator,
+    register_solver as register_solver,
+    solver_from_spec as solver_from_spec,
+    unregister_solver as unregister_solver,
 )
 from .physics import (
     AbstractChainDynamics as AbstractChainDynamics,
