@@ -1,6 +1,8 @@
 """Work-precision study of every solver on every scene present; results committed under results/.
 
-    python benchmarks/work_precision.py [--scenes CartPole ...] [--out benchmarks/results]
+    python -m benchmarks work_precision             # every scene, the full study
+    python -m benchmarks work_precision --quick     # CartPole, `lerax-like study --quick` sizes
+    python -m benchmarks.work_precision [--scenes CartPole ...] [--repeats 15] [--out DIR]
 
 For each scene in `lerax_like.analysis.SCENES`, runs the default (full) study of
 `lerax-like study SCENE`, with the SciPy reference also checked against an independent
@@ -12,35 +14,39 @@ library versions, the machine and the date). Timings are of this machine, in thi
 import argparse
 import datetime
 import os
-import sys
+import pathlib
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir))
-
-from lerax_like.analysis import SCENES, STIFF_SCENES, StudyConfig, run_study  # noqa: E402
-from lerax_like.analysis.report import (  # noqa: E402
+from benchmarks import results_dir
+from lerax_like.analysis import SCENES, STIFF_SCENES, StudyConfig, run_study
+from lerax_like.analysis.report import (
     cheapest_at, format_orders, format_table, plot_work_precision, write_csv, write_json,
 )
-from lerax_like.analysis.study import environment_record  # noqa: E402
+from lerax_like.analysis.study import environment_record
 
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--scenes", nargs="*", default=list(SCENES))
-    parser.add_argument("--out", default=os.path.join(os.path.dirname(os.path.abspath(__file__)), "results"))
-    parser.add_argument("--repeats", type=int, default=15, help="timed runs per setting; the minimum is kept")
+    parser.add_argument("--quick", action="store_true", help="CartPole only, the quick study's sizes")
+    parser.add_argument("--scenes", nargs="*", default=None)
+    parser.add_argument("--out", type=pathlib.Path, default=None, help="default: benchmarks/results[/quick]")
+    parser.add_argument("--repeats", type=int, default=None, help="timed runs per setting; the minimum is kept")
     parser.add_argument("--no-progress", action="store_true")
     arguments = parser.parse_args(argv)
-    os.makedirs(arguments.out, exist_ok=True)
-    for scene in arguments.scenes:
+    scenes = arguments.scenes or (["CartPole"] if arguments.quick else list(SCENES))
+    repeats = arguments.repeats or (3 if arguments.quick else 15)
+    out = arguments.out or results_dir(arguments.quick)
+    out.mkdir(parents=True, exist_ok=True)
+    for scene in scenes:
         date = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
         machine = environment_record()
         config = StudyConfig.default(
-            scene, repeats=arguments.repeats, check_method="DOP853" if scene in STIFF_SCENES else "Radau"
+            scene, quick=arguments.quick, repeats=repeats,
+            check_method="DOP853" if scene in STIFF_SCENES else "Radau",
         )
         started = datetime.datetime.now()
         result = run_study(config, progress=not arguments.no_progress)
         seconds = (datetime.datetime.now() - started).total_seconds()
-        stem = os.path.join(arguments.out, f"work_precision_{scene}")
+        stem = os.path.join(out, f"work_precision_{scene}")
         write_csv(result.rows, stem + ".csv")
         write_json(result, stem + ".json", date=date, study_seconds=seconds)
         title = (
@@ -57,4 +63,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    raise SystemExit(main())
