@@ -1,12 +1,14 @@
 """Domain randomisation over pole masses (the notebook `domain_randomisation.ipynb`)."""
 
 import jax.random as jr
+import pytest
 
 from lerax_like.control.domain_randomisation import balanced_fractions, train_balancing_policy
 
 NUM_ENVS = 256
 
 
+@pytest.mark.slow
 def test_policy_randomised_over_heavy_poles_balances_heavier_and_lighter_poles_than_trained():
     # Same training as the notebook: pole masses uniform in [3, 8] kg vs the nominal 0.1 kg.
     masses_key, randomised_key, nominal_key = jr.split(jr.key(1), 3)

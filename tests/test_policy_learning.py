@@ -2,6 +2,7 @@
 
 import jax.numpy as jnp
 import jax.random as jr
+import pytest
 
 import lerax_like as ll
 from lerax_like.control.domain_randomisation import HORIZONS, NOMINAL_MASS, train_balancing_policy
@@ -11,6 +12,7 @@ from lerax_like.env import EnvState
 from conftest import relative_error
 
 
+@pytest.mark.slow
 def test_policy_trained_through_the_simulator_balances_for_500_steps():
     # The notebook's recipe (1024 envs, a horizon curriculum, a cart cost), another seed.
     policy, history = train_balancing_policy(NOMINAL_MASS, key=jr.key(2), num_envs=1024)
