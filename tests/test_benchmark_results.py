@@ -4,6 +4,8 @@ import hashlib
 import json
 import pathlib
 
+import pytest
+
 from benchmarks import BENCHMARKS, RESULTS
 from benchmarks._report import render, write_results
 
@@ -49,3 +51,16 @@ def test_quick_results_go_to_their_own_folder(tmp_path, monkeypatch):
     # With no result files every section says so rather than inventing a number.
     text = path.read_text()
     assert text.count("No results recorded yet") == len(BENCHMARKS)
+
+
+def test_a_benchmark_whose_peer_is_missing_is_skipped_with_the_install_hint(monkeypatch, capsys):
+    import dataclasses
+
+    import benchmarks.__main__ as runner
+
+    absent = dataclasses.replace(BENCHMARKS["throughput"], needs=(("no_such_peer_module", "pip install the-peer"),))
+    monkeypatch.setitem(runner.BENCHMARKS, "throughput", absent)
+    monkeypatch.setattr(runner.subprocess, "Popen", lambda *args, **kwargs: pytest.fail("a skipped benchmark ran"))
+    outcome, seconds = runner.run_one("throughput", quick=True, options=[])
+    assert outcome.startswith("skipped") and seconds == 0.0
+    assert "no_such_peer_module (pip install the-peer)" in capsys.readouterr().out
