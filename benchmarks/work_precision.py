@@ -17,7 +17,7 @@ import os
 import pathlib
 
 from benchmarks import results_dir
-from lerax_like.analysis import SCENES, STIFF_SCENES, StudyConfig, run_study
+from lerax_like.analysis import SCENES, StudyConfig, run_study
 from lerax_like.analysis.report import (
     cheapest_at, format_orders, format_table, plot_work_precision, write_csv, write_json,
 )
@@ -41,7 +41,7 @@ def main(argv=None) -> int:
         machine = environment_record()
         config = StudyConfig.default(
             scene, quick=arguments.quick, repeats=repeats,
-            check_method="DOP853" if scene in STIFF_SCENES else "Radau",
+            check_method="DOP853" if SCENES[scene].stiff else "Radau",
         )
         started = datetime.datetime.now()
         result = run_study(config, progress=not arguments.no_progress)

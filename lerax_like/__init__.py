@@ -1,7 +1,12 @@
 """Continuous-time control environments for JAX: physics as vector fields, any diffrax solver."""
 
 from . import physics as physics, spaces as spaces
-from .env import AbstractEnv as AbstractEnv, EnvState as EnvState, rollout as rollout
+from .env import (
+    AbstractEnv as AbstractEnv,
+    EnvState as EnvState,
+    GymnasiumSpec as GymnasiumSpec,
+    rollout as rollout,
+)
 from .gradients import ADJOINTS as ADJOINTS, make_adjoint as make_adjoint, with_adjoint as with_adjoint
 from .integrate import (
     Integrator as Integrator,
@@ -22,17 +27,10 @@ from .physics import (
     PendulumDynamics as PendulumDynamics,
     VanDerPolDynamics as VanDerPolDynamics,
 )
-from .scenes import (
-    Acrobot as Acrobot,
-    CartPole as CartPole,
-    CartPoleContinuous as CartPoleContinuous,
-    DoubleCartPole as DoubleCartPole,
-    MountainCar as MountainCar,
-    MountainCarContinuous as MountainCarContinuous,
-    NLinkPendulum as NLinkPendulum,
-    Pendulum as Pendulum,
-    VanDerPol as VanDerPol,
-)
+from .scenes import SCENES as SCENES
+
+# Every registered scene at the top level (`lerax_like.CartPole`), from the one registry.
+globals().update(SCENES)
 from .spaces import Box as Box, Discrete as Discrete
 
 __version__ = "0.1.0"

@@ -1,35 +1,83 @@
-"""The functional env API: `reset` and `step` on top of smaller, overridable pieces.
+"""The functional env API: a scene is dynamics + integrator + task, stepped by one pipeline.
 
 An env is an Equinox module, so it is a pytree: its physical parameters are leaves that
 `jax.grad` differentiates and `eqx.filter_vmap` batches, and every method is pure.
+
+A scene declares its parts as fields and nothing else: `dynamics` (a physics module),
+`integrator` and its task's parameters (`parameter(...)`, `option(...)`). The one
+`__init__` here takes them by keyword, and also takes the dynamics' parameters and the
+integrator's settings flat (`CartPole(pole_mass=0.2, solver="rk4")`), as Gymnasium users
+pass them. The step semantics (keys, failure guards, autoreset) live in `advance` and
+`step`, which everything else calls: `rollout`, the Gymnasium layer, the studies.
 """
 
 import abc
-from typing import ClassVar
+import dataclasses
+from typing import ClassVar, Literal, NamedTuple
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import jax.random as jr
 
+from ._fields import POSITIVE, assign_fields, parameter
+from ._random import uniform
 from ._types import Array, BoolScalar, Float, Input, IntScalar, Key, Scalar, State
-from .integrate import Integrator
+from .integrate import Integrator, make_integrator
 from .physics import AbstractDynamics
 from .spaces import AbstractSpace
 
 
-def _part_keys(key: Key, count: int, stochastic: bool) -> tuple[Key | None, ...]:
-    """Keys for the `count` parts of a `reset` or a `step`, the one that draws the start last.
+_INTEGRATOR_KEYWORDS = ("solver", "stepsize_controller", "max_steps", "adjoint", "substeps")
 
-    A stochastic env's parts each get their own key, `jr.fold_in(key, i)`: unlike
-    `jr.split(key, count)`, which hashes all `count` counters in one op, each `fold_in` is
-    its own small op, so XLA drops the keys a part never uses. A deterministic env's parts
-    get `None`, and the start draw gets `key` itself: key work dominates a vmapped env
-    step, and deriving a key costs a hash, as much as a draw.
+
+def integrator(solver: str = "euler"):
+    """The `integrator` field of a scene, `solver` (a preset name) by default.
+
+    The scene's flat keywords `solver`, `stepsize_controller`, `max_steps`, `adjoint` and
+    `substeps` build another one with `make_integrator`.
     """
-    if stochastic:
-        return tuple(jr.fold_in(key, i) for i in range(count))
-    return (None,) * (count - 1) + (key,)  # `(None,) * count` when `key` is None
+    return eqx.field(default_factory=lambda: make_integrator(solver), metadata={"solver": solver})
+
+
+def dynamics(factory):
+    """The `dynamics` field of a scene: `factory()` by default; its parameters are flat keywords."""
+    return eqx.field(default_factory=factory, metadata={"factory": factory})
+
+
+def time_step(default: float):
+    """The env step `dt` (> 0)."""
+    return parameter(default, POSITIVE)
+
+
+def episode_limit(default: int | None):
+    """`max_episode_steps`: the time limit of an episode (None: none)."""
+    return eqx.field(default=default, static=True)
+
+
+@dataclasses.dataclass(frozen=True)
+class GymnasiumSpec:
+    """What registers a scene as `lerax_like/<name>` in Gymnasium, standing in for Gymnasium's `<name>`.
+
+    - `name`: Gymnasium's id (`"CartPole-v1"`); `max_episode_steps`, `reward_threshold`: Gymnasium's.
+    - `renderer`: the Gymnasium env class (`"module:Class"`) whose `render` draws the scene.
+    - `attributes`: Gymnasium's attribute names on its env and the scene's path for each
+      (`{"masspole": "dynamics.pole_mass"}`); the renderer reads them, and so can users.
+    - `reset_options`: how Gymnasium's `reset(options=...)` bounds the start: `"bounds"`
+      (`low`/`high` for every drawn coordinate) or `"pendulum"` (`x_init`, `y_init`).
+    - `float32_start`: Gymnasium's env stores its start in float32 (Acrobot).
+
+    The start itself is drawn from the scene's own `initial_bounds`, with NumPy in
+    Gymnasium's order of calls, so that seeds give Gymnasium's starts.
+    """
+
+    name: str
+    max_episode_steps: int
+    reward_threshold: float | None
+    renderer: str
+    attributes: tuple[tuple[str, str], ...] = ()
+    reset_options: Literal["bounds", "pendulum"] = "bounds"
+    float32_start: bool = False
 
 
 class EnvState(eqx.Module):
@@ -42,25 +90,86 @@ class EnvState(eqx.Module):
     steps: IntScalar
 
 
+class StepKeys(NamedTuple):
+    """The keys of one step's parts; `None` for every part but `reset` in a deterministic env."""
+
+    transition: Key | None
+    observation: Key | None
+    reward: Key | None
+    terminal: Key | None
+    reset: Key | None
+
+
+def step_keys(key: Key | None, stochastic: bool) -> StepKeys:
+    """The keys of a step's parts: the one key derivation of the package.
+
+    A stochastic env's parts each get `jr.fold_in(key, i)`: unlike `jr.split(key, 5)`,
+    which hashes all counters in one op, each `fold_in` is its own small op, so XLA drops
+    the keys a part never uses. A deterministic env's parts get `None` and the start draw
+    gets `key` itself: key work dominates a vmapped env step, and a derived key costs a
+    hash, as much as a draw.
+    """
+    if stochastic:
+        return StepKeys(*(jr.fold_in(key, i) for i in range(5)))
+    return StepKeys(None, None, None, None, key)
+
+
 class AbstractEnv(eqx.Module):
     """A continuous-time control env: physics (`dynamics`), an `integrator` and a task.
 
-    Scenes provide `initial`, `physical_input`, `observation`, `reward`, `terminal` and
-    the two spaces; `transition`, `truncate`, `reset` and `step` are built from them.
+    A scene provides `physical_input`, `observation`, `reward`, `terminal`,
+    `initial_bounds`, `worst_reward` and the two spaces, and declares:
 
-    `stochastic` says whether `transition`, `observation`, `reward` or `terminal` draw
-    random numbers (`initial` always does). True, the safe default, gives each its own
-    key. A scene that declares False, as every scene here does, has them called with
-    `key=None` (one that draws anyway fails at once), and its `reset` and `step` hand
-    their whole key to `initial`: key work dominates a vmapped step.
+    - `stochastic`: whether `transition`, `observation`, `reward` or `terminal` draw random
+      numbers (`initial` always does). A deterministic scene's parts get `key=None` (one
+      that draws anyway fails at once), and its whole key goes to the start draw.
+    - `stiff`: whether its dynamics are stiff, so that the studies' SciPy reference uses
+      Radau instead of DOP853 (False unless declared).
+    - `gymnasium`: its `GymnasiumSpec`, or None (the default) when it stands for no
+      Gymnasium env.
+    - `aliases`: other names its keywords go by (`("reward", "reward_kind")`; Gymnasium's
+      names, such as Pendulum's `g`).
+    - `addons`: the generalised-force add-ons it accepts (`JointDamping`, `EndStops`);
+      a scene that accepts any holds them in a field `forces` (empty by default, so that
+      a scene built without them carries and computes none of it).
+
+    Whether a scene clips or wraps its state is not declared but read off: it overrides
+    `project` (`projects_state`).
     """
 
-    stochastic: ClassVar[bool] = True
+    stochastic: eqx.AbstractClassVar[bool]
+    stiff: ClassVar[bool] = False
+    gymnasium: ClassVar[GymnasiumSpec | None] = None
+    addons: ClassVar[tuple[type, ...]] = ()
+    aliases: ClassVar[tuple[tuple[str, str], ...]] = ()
 
     dynamics: eqx.AbstractVar[AbstractDynamics]
     integrator: eqx.AbstractVar[Integrator]
     dt: eqx.AbstractVar[Scalar]
     max_episode_steps: eqx.AbstractVar[int | None]
+
+    def __init__(self, *fields, **keywords):
+        """Every field by keyword (or by position, in declaration order); besides, the
+        dynamics' parameters and the integrator's settings (`solver`, `stepsize_controller`,
+        `max_steps`, `adjoint`, `substeps`), and the add-ons' parameters (`joint_damping`,
+        ...) flat."""
+        cls = type(self)
+        for field, value in zip(dataclasses.fields(cls), fields, strict=False):
+            if field.name in keywords:
+                raise TypeError(f"{cls.__name__} got {field.name} both by position and by keyword")
+            keywords[field.name] = value
+        if len(fields) > len(dataclasses.fields(cls)):
+            raise TypeError(f"{cls.__name__} takes at most {len(dataclasses.fields(cls))} positional fields")
+        for alias, name in cls.aliases:
+            if alias in keywords:
+                keywords[name] = keywords.pop(alias)
+        fields = {field.name: field for field in dataclasses.fields(cls)}
+        _gather_dynamics(cls, fields, keywords)
+        _gather_integrator(fields, keywords)
+        _gather_addons(cls, keywords)
+        assign_fields(self, keywords)
+
+    # -- what a scene provides ---------------------------------------------------------
 
     @property
     @abc.abstractmethod
@@ -70,13 +179,10 @@ class AbstractEnv(eqx.Module):
     @abc.abstractmethod
     def observation_space(self) -> AbstractSpace: ...
 
+    @property
     @abc.abstractmethod
-    def initial(self, *, key: Key) -> EnvState:
-        """A random initial state.
-
-        The scenes here draw it with `lerax_like._random.uniform`: 16 random bits per
-        coordinate, one hash for four, since key work dominates a vmapped step.
-        """
+    def initial_bounds(self) -> tuple[Float[Array, " n"], Float[Array, " n"]]:
+        """`(low, high)`: the start is uniform in `[low, high)` per coordinate (low == high: fixed)."""
 
     @abc.abstractmethod
     def physical_input(self, action: Array) -> Input:
@@ -90,9 +196,41 @@ class AbstractEnv(eqx.Module):
     def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
         """The reward of the transition `state --action--> next_state`."""
 
+    @property
+    @abc.abstractmethod
+    def worst_reward(self) -> Scalar:
+        """A lower bound of the task's rewards for actions in the action space: a failed
+        step pays it, so that breaking the solver never pays an agent."""
+
     @abc.abstractmethod
     def terminal(self, state: EnvState, *, key: Key | None) -> BoolScalar:
         """Whether `state` ends the episode (the task's own end, not a time limit)."""
+
+    # -- built from the above ----------------------------------------------------------
+
+    @property
+    def physics(self) -> AbstractDynamics:
+        """What a step integrates: `dynamics`, with the scene's add-on forces if it has any."""
+        if not self.addons or not self.forces:
+            return self.dynamics
+        from .physics.forces import ForcedDynamics
+
+        return ForcedDynamics(dynamics=self.dynamics, forces=self.forces)
+
+    @classmethod
+    def projects_state(cls) -> bool:
+        """Whether the scene clips or wraps its state after each step (overrides `project`)."""
+        return cls.project is not AbstractEnv.project
+
+    def initial(self, *, key: Key) -> EnvState:
+        """A start uniform within `initial_bounds`.
+
+        Drawn with `lerax_like._random.uniform`: 16 random bits per coordinate, one hash
+        for four, since key work dominates a vmapped step.
+        """
+        low, high = self.initial_bounds
+        y = uniform(key, low.shape, self.dt.dtype, low, high)
+        return EnvState(y=y, steps=jnp.zeros((), dtype=int))
 
     def project(self, y: State) -> State:
         """Map a state onto the scene's admissible states (speed limits, walls, wrapping).
@@ -108,24 +246,29 @@ class AbstractEnv(eqx.Module):
     def transition(
         self, state: EnvState, action: Array, *, key: Key | None
     ) -> tuple[EnvState, dict[str, Array]]:
-        """Integrate the dynamics over `[0, dt]` with the action's input held constant.
-
-        The end state is projected by `project`; with `SemiImplicitEuler`, the state
-        after the velocity update is projected too (see `Integrator.integrate`).
-
-        The info holds `solver_ok` and `solver_steps`. A failed solve (non-finite state,
-        exhausted step budget) keeps the pre-step state, so that nothing non-finite
-        leaves the env; `step` ends the episode on it.
-        """
+        """Integrate the physics over `[0, dt]` under the action's physical input (`evolve`)."""
         del key
-        u = self.physical_input(action)
+        return self.evolve(state, self.physical_input(action))
+
+    def evolve(self, state: EnvState, u: Input) -> tuple[EnvState, dict[str, Array]]:
+        """Integrate the physics over `[0, dt]` with the physical input `u` held constant.
+
+        The end state is projected by `project` (if the scene overrides it); with
+        `SemiImplicitEuler`, the state after the velocity update is projected too.
+
+        The info holds `solver_ok`, `solver_steps` and `solver_rejected_steps`. A failed
+        solve (non-finite state, exhausted step budget) keeps the pre-step state, so that
+        nothing non-finite leaves the env. The studies call this directly, with inputs an
+        action cannot express (a zero force on `CartPole`).
+        """
+        physics = self.physics
         y, info = self.integrator.integrate(
-            self.dynamics.vector_field,
+            physics.vector_field,
             state.y,
             u,
             self.dt,
-            projection=self.project,
-            velocity_indices=self.dynamics.velocity_indices,
+            projection=self.project if self.projects_state() else None,
+            velocity_indices=physics.velocity_indices,
         )
         y = jnp.where(info["solver_ok"], y, state.y)
         return EnvState(y=y, steps=state.steps + 1), info
@@ -137,72 +280,146 @@ class AbstractEnv(eqx.Module):
         return state.steps >= self.max_episode_steps
 
     def reset(self, *, key: Key) -> tuple[EnvState, Array, dict[str, Array]]:
-        observation_key, initial_key = _part_keys(key, 2, self.stochastic)
-        state = self.initial(key=initial_key)
-        return state, self.observation(state, key=observation_key), {}
+        keys = step_keys(key, self.stochastic)
+        state = self.initial(key=keys.reset)
+        return state, self.observation(state, key=keys.observation), {}
+
+    def advance(
+        self, state: EnvState, action: Array, *, key: Key | None, observation_dtype=None
+    ) -> tuple[EnvState, Array, Scalar, BoolScalar, dict[str, Array]]:
+        """One step without time limit or reset: the step semantics, defined once.
+
+        Returns the next state, its observation (cast to `observation_dtype` if given),
+        the reward, whether the episode terminated, and the info. `step`, `rollout`, the
+        Gymnasium layer and the studies all step through here.
+
+        Failures are reported, never silent: `info["solver_ok"]` is False when the solve
+        failed (non-finite state, step budget exhausted, step size collapsed, Newton
+        diverged) or when a finite state still gave a non-finite observation or reward
+        (an overflow, or a float64 state beyond float32's range). Such a step
+        *terminates* the episode and returns nothing non-finite: the state stays at the
+        pre-step state (see `transition`), the observation is the pre-step state's, and
+        the reward is `worst_reward`, so that breaking the solver never pays an agent.
+
+        Terminated rather than truncated: truncation tells an agent to bootstrap from the
+        last observation as if the episode could have gone on, but after a failure there
+        is no true next state; in the MDP the env actually computes (solver included) a
+        state that overflows is absorbing. `info["solver_ok"]` tells this end apart from
+        the task's own.
+        """
+        keys = step_keys(key, self.stochastic)
+
+        def observe(s):
+            observation = self.observation(s, key=keys.observation)
+            return observation if observation_dtype is None else observation.astype(observation_dtype)
+
+        next_state, info = self.transition(state, action, key=keys.transition)
+        observation = observe(next_state)
+        reward = self.reward(state, action, next_state, key=keys.reward)
+        observation_ok = jnp.all(jnp.isfinite(observation))
+        reward_ok = jnp.isfinite(reward)
+        ok = info["solver_ok"] & observation_ok & reward_ok
+        next_state = EnvState(y=jnp.where(ok, next_state.y, state.y), steps=next_state.steps)
+        observation = jnp.where(ok, observation, observe(state))
+        reward = jnp.where(ok, reward, jnp.asarray(self.worst_reward, reward.dtype))
+        terminated = self.terminal(next_state, key=keys.terminal) | ~ok
+        return next_state, observation, reward, terminated, {**info, "solver_ok": ok}
 
     def step(
         self, state: EnvState, action: Array, *, key: Key
     ) -> tuple[EnvState, Array, Scalar, BoolScalar, BoolScalar, dict[str, Array]]:
-        """One env step, with autoreset.
+        """One env step (`advance`), with time limit and autoreset.
 
         When the episode ends (terminated or truncated) the returned state and
         observation are those of a fresh episode; the last observation of the ended one
-        is `info["final_observation"]`.
-
-        Failures are reported, never silent. `info["solver_ok"]` is False when the solve
-        failed (non-finite state, step budget exhausted, step size collapsed, Newton
-        diverged) or when a finite state still gave a non-finite observation or reward
-        (overflow). Such a step *terminates* the episode, and nothing non-finite is
-        returned: the state stays at the pre-step state (see `transition`), a non-finite
-        observation is replaced by the pre-step state's and a non-finite reward by 0.
-
-        Terminated rather than truncated: truncation tells an agent to bootstrap from
-        `final_observation` as if the episode could have gone on from it, but after a
-        failure there is no true next state to bootstrap from (the returned one is the
-        pre-step state, a transition that never happened); and in the MDP the env
-        actually computes (solver included) a state that overflows is absorbing. A
-        terminal with no future reward is also the conservative signal: an agent learns
-        to avoid the actions that break the solver rather than to exploit them.
-        `info["solver_ok"]` tells this end apart from the task's own.
+        is `info["final_observation"]`. See `advance` for the failure semantics.
         """
-        transition_key, observation_key, reward_key, terminal_key, reset_key = _part_keys(key, 5, self.stochastic)
-        next_state, info = self.transition(state, action, key=transition_key)
-        observation = self.observation(next_state, key=observation_key)
-        reward = self.reward(state, action, next_state, key=reward_key)
-        # The last line of defence: a finite state can overflow in an observation or a
-        # reward (a square of 1e200, say).
-        observation_ok = jnp.all(jnp.isfinite(observation))
-        reward_ok = jnp.isfinite(reward)
-        observation = jnp.where(observation_ok, observation, self.observation(state, key=observation_key))
-        reward = jnp.where(reward_ok, reward, jnp.zeros_like(reward))
-        info = {**info, "solver_ok": info["solver_ok"] & observation_ok & reward_ok}
-        terminated = self.terminal(next_state, key=terminal_key) | ~info["solver_ok"]
+        keys = step_keys(key, self.stochastic)
+        next_state, observation, reward, terminated, info = self.advance(state, action, key=key)
         truncated = self.truncate(next_state)
         done = terminated | truncated
-        reset_state, reset_observation, _ = self.reset(key=reset_key)
+        reset_state, reset_observation, _ = self.reset(key=keys.reset)
         new_state = jax.tree.map(lambda fresh, old: jnp.where(done, fresh, old), reset_state, next_state)
         new_observation = jnp.where(done, reset_observation, observation)
         info = {**info, "final_observation": observation}
         return new_state, new_observation, reward, terminated, truncated, info
 
 
-def rollout(
-    env: AbstractEnv, state: EnvState, actions: Array, *, key: Key
-) -> tuple[Float[Array, "T n"], dict[str, Array]]:
-    """Apply `actions` (leading axis: time) with `env.transition`, without termination or reset.
+def _gather_dynamics(cls, fields, keywords) -> None:
+    """Move the dynamics' flat parameters (`pole_mass=0.2`) into a `dynamics` keyword."""
+    field = fields.get("dynamics")
+    factory = None if field is None else field.metadata.get("factory")
+    if factory is None:
+        return
+    dynamics_class = getattr(factory, "func", factory)
+    names = {f.name for f in dataclasses.fields(dynamics_class)} - set(fields)
+    flat = {name: keywords.pop(name) for name in list(keywords) if name in names}
+    if not flat:
+        return
+    if "dynamics" in keywords:
+        raise TypeError(
+            f"{cls.__name__}: give either dynamics= or its parameters ({', '.join(sorted(flat))}), not both"
+        )
+    keywords["dynamics"] = factory(**flat)
 
-    Returns the states after each action (shape `(T, n)`) and the per-step solver info.
-    Pure, so `jax.grad` of a loss of the trajectory flows to parameters, actions, `dt`
-    and the initial state.
+
+def _gather_integrator(fields, keywords) -> None:
+    """Build the `integrator` from the flat solver settings, if any are given."""
+    settings = {name: keywords.pop(name) for name in _INTEGRATOR_KEYWORDS if name in keywords}
+    if not settings or "integrator" not in fields:
+        keywords.update(settings)  # left for `assign_fields` to refuse by name
+        return
+    if "integrator" in keywords:
+        raise TypeError(f"give either integrator= or solver settings ({', '.join(settings)}), not both")
+    settings.setdefault("solver", fields["integrator"].metadata.get("solver", "euler"))
+    keywords["integrator"] = make_integrator(settings.pop("solver"), **settings)
+
+
+def _gather_addons(cls, keywords) -> None:
+    """Build the add-ons whose parameters are given flat (`joint_damping=0.5`) into `forces`."""
+    forces = list(keywords.pop("forces", ()))
+    for addon in cls.addons:
+        names = {f.name for f in dataclasses.fields(addon)}
+        given = {name: keywords.pop(name) for name in list(keywords) if name in names}
+        if given:
+            forces.append(addon(**given))
+    if forces:
+        keywords["forces"] = tuple(forces)
+
+
+def rollout(
+    env: AbstractEnv, state: EnvState, actions: Array, *, key: Key | None = None
+) -> tuple[Float[Array, "T n"], dict[str, Array]]:
+    """Apply `actions` (leading axis: time) with `env.advance`, without time limit or reset.
+
+    Returns the states after each action (shape `(T, n)`) and the per-step info (the
+    rewards under `"reward"`, whether each step terminated under `"terminated"`). A failed
+    step keeps its pre-step state, as in `step`. Pure, so `jax.grad` of a loss of the
+    trajectory flows to parameters, actions, `dt` and the initial state.
     """
-    # A deterministic env's transitions get no key (`None`, an empty pytree to `scan`).
+    if env.stochastic and key is None:
+        raise ValueError(f"{type(env).__name__} is stochastic: rollout needs a key")
+    # A deterministic env's steps get no key (`None`, an empty pytree to `scan`).
     keys = jr.split(key, actions.shape[0]) if env.stochastic else None
 
     def body(state, inputs):
         action, step_key = inputs
-        next_state, info = env.transition(state, action, key=step_key)
-        return next_state, (next_state.y, info)
+        next_state, _, reward, terminated, info = env.advance(state, action, key=step_key)
+        return next_state, (next_state.y, {**info, "reward": reward, "terminated": terminated})
 
     _, (ys, infos) = jax.lax.scan(body, state, (actions, keys))
     return ys, infos
+
+
+__all__ = [
+    "AbstractEnv",
+    "EnvState",
+    "GymnasiumSpec",
+    "StepKeys",
+    "dynamics",
+    "episode_limit",
+    "integrator",
+    "rollout",
+    "step_keys",
+    "time_step",
+]

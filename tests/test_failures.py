@@ -111,6 +111,8 @@ class _Decay(ll.AbstractDynamics):
 class _ExponentialReward(ll.AbstractEnv):
     """A test scene whose finite states can overflow in the reward: exp(x)."""
 
+    stochastic = False
+
     dynamics: _Decay
     integrator: ll.Integrator
     dt: jax.Array
@@ -124,8 +126,9 @@ class _ExponentialReward(ll.AbstractEnv):
     def observation_space(self):
         return ll.Box(-jnp.inf, jnp.inf, (1,))
 
-    def initial(self, *, key):
-        return ll.EnvState(y=jnp.zeros(1), steps=jnp.zeros((), dtype=int))
+    @property
+    def initial_bounds(self):
+        return jnp.zeros(1), jnp.zeros(1)
 
     def physical_input(self, action):
         return action
@@ -135,6 +138,10 @@ class _ExponentialReward(ll.AbstractEnv):
 
     def reward(self, state, action, next_state, *, key):
         return jnp.exp(next_state.y[0])
+
+    @property
+    def worst_reward(self):
+        return jnp.zeros(())
 
     def terminal(self, state, *, key):
         return jnp.asarray(False)
@@ -146,7 +153,7 @@ def test_overflowing_reward_is_flagged_and_replaced():
     record = _run_jit(env, jnp.array([1e3]), jnp.zeros((2, 1)), jax.random.key(0))
     assert not bool(record["solver_ok"][0]) and bool(record["raw_finite"][0])
     assert bool(record["terminated"][0])
-    assert float(record["reward"][0]) == 0.0
+    assert float(record["reward"][0]) == float(env.worst_reward) == 0.0
     assert np.all(np.isfinite(np.asarray(record["final_observation"])))
     # The autoreset put the env at x = 0, where the reward is 1 again.
     assert bool(record["solver_ok"][1]) and float(record["reward"][1]) == 1.0

@@ -31,7 +31,7 @@ from .report import (
     write_study as write_study,
 )
 from .rollout_check import preset_rollouts as preset_rollouts
-from .scenes import SCENES as SCENES, STIFF_SCENES as STIFF_SCENES, make_scene as make_scene
+from .scenes import SCENES as SCENES, make_scene as make_scene, reference_method as reference_method
 from .study import (
     SCHEDULES as SCHEDULES,
     SolverSweep as SolverSweep,

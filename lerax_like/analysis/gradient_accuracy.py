@@ -208,7 +208,7 @@ def gradient_work_precision(
 
 def _scene_projects(name: str) -> bool:
     """Whether the scene clips or wraps its state after each step (a `project` override)."""
-    return SCENES[name].project is not AbstractEnv.project
+    return SCENES[name].projects_state()
 
 
 def gradient_scenes() -> tuple[str, ...]:

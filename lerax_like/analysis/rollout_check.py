@@ -12,7 +12,7 @@ import numpy as np
 from ..env import rollout
 from ..integrate import SOLVER_PRESETS, make_integrator
 from .reference import reference_trajectories
-from .scenes import STIFF_SCENES, make_scene
+from .scenes import make_scene, reference_method
 
 
 @eqx.filter_jit
@@ -38,7 +38,7 @@ def preset_rollouts(
         state = env.initial(key=initial_key)
         actions = jax.vmap(lambda k: env.action_space.sample(key=k))(jr.split(action_key, steps))
         inputs = np.asarray(jax.vmap(env.physical_input)(actions))
-        method = "Radau" if scene in STIFF_SCENES else "DOP853"
+        method = reference_method(scene)
         reference = reference_trajectories(
             env.dynamics, np.asarray(state.y)[None], inputs, float(env.dt),
             method=method, rtol=reference_tolerance, atol=reference_tolerance,

@@ -16,7 +16,6 @@ integrator (`env.integrator.integrate` over `[0, dt]` per env step, the input he
 """
 
 import dataclasses
-import inspect
 import math
 import time
 from collections.abc import Sequence
@@ -29,11 +28,11 @@ import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
 
-from ..env import AbstractEnv
+from ..env import AbstractEnv, EnvState
 from ..integrate import Integrator, make_integrator
 from ..spaces import Box, Discrete
 from .reference import reference_trajectories
-from .scenes import STIFF_SCENES, make_scene
+from .scenes import make_scene, reference_method
 
 
 SCHEDULES = ("zero", "constant", "recorded")
@@ -140,7 +139,7 @@ class StudyConfig:
       `env.initial` with `seed` unless `initial_states` is given.
     - `repeats`: timed runs per setting, after one compiling run; the minimum is kept.
     - `reference_method`: SciPy method (`None`: DOP853, Radau for scenes in
-      `STIFF_SCENES`); `reference_tolerance`: its `rtol = atol`. The reference floor is
+      `stiff`); `reference_tolerance`: its `rtol = atol`. The reference floor is
       estimated by a second solve at ten times the tolerance, and optionally
       (`check_method`) by an independent method.
     - `fit_ceiling`: convergence orders are fitted to errors below it (and above the
@@ -187,46 +186,26 @@ class StudyConfig:
     def method(self) -> str:
         if self.reference_method is not None:
             return self.reference_method
-        return "Radau" if self.scene in STIFF_SCENES else "DOP853"
+        return reference_method(self.scene)
 
 
-_INTEGRATE_KEYWORDS = frozenset(inspect.signature(Integrator.integrate).parameters)
+def _trajectory(env: AbstractEnv, y0, inputs):
+    # The env's own integration (`evolve`, the core of every env step), with the physical
+    # input given directly, so that a zero force can be studied on a scene whose actions
+    # cannot express one (CartPole pushes left or right).
+    def body(state, u):
+        next_state, info = env.evolve(state, u)
+        outputs = (next_state.y, info["solver_ok"], info["solver_steps"], info["solver_rejected_steps"])
+        return next_state, outputs
 
-
-def _transition_options(env: AbstractEnv) -> dict[str, Any]:
-    """The keywords `env.transition` passes to `integrate` besides the vector field.
-
-    Only those this version of `Integrator.integrate` takes; a projection only when the
-    scene overrides the identity, so that scenes sharing a physics module share
-    compilations.
-    """
-    options: dict[str, Any] = {}
-    if "velocity_indices" in _INTEGRATE_KEYWORDS:
-        options["velocity_indices"] = getattr(env.dynamics, "velocity_indices", None)
-    project = getattr(type(env), "project", None)
-    if "projection" in _INTEGRATE_KEYWORDS and project is not getattr(AbstractEnv, "project", None):
-        options["projection"] = env.project
-    return options
-
-
-def _trajectory(integrator: Integrator, dynamics, dt, options, y0, inputs):
-    # The integration `env.transition` performs with the env's `integrator`, `dynamics`
-    # and `dt`, with the physical input given directly, so that a zero force can be
-    # studied on a scene whose actions cannot express one (CartPole pushes left or
-    # right).
-    def body(y, u):
-        y1, info = integrator.integrate(dynamics.vector_field, y, u, dt, **options)
-        return y1, (y1, info["solver_ok"], info["solver_steps"], info["solver_rejected_steps"])
-
-    _, (ys, ok, steps, rejected) = jax.lax.scan(body, y0, inputs)
+    state = EnvState(y=y0, steps=jnp.zeros((), dtype=int))
+    _, (ys, ok, steps, rejected) = jax.lax.scan(body, state, inputs)
     return ys, ok, steps, rejected
 
 
 @eqx.filter_jit
-def _batched_trajectories(integrator: Integrator, dynamics, dt, options, y0s, inputs):
-    return jax.vmap(_trajectory, in_axes=(None, None, None, None, 0, None))(
-        integrator, dynamics, dt, options, y0s, inputs
-    )
+def _batched_trajectories(env: AbstractEnv, y0s, inputs):
+    return jax.vmap(_trajectory, in_axes=(None, 0, None))(env, y0s, inputs)
 
 
 def evaluations_per_step(solver: diffrax.AbstractSolver) -> tuple[int, int, int] | None:
@@ -349,11 +328,11 @@ def _run_study(config: StudyConfig, *, progress: bool) -> StudyResult:
         inputs, actions = _schedule_inputs(env, config, schedule, key)
         start = time.perf_counter()
         reference = reference_trajectories(
-            env.dynamics, y0s_np, inputs, dt, method=method, rtol=tolerance, atol=tolerance
+            env.physics, y0s_np, inputs, dt, method=method, rtol=tolerance, atol=tolerance
         )
         reference_seconds = time.perf_counter() - start
         looser = reference_trajectories(
-            env.dynamics, y0s_np, inputs, dt, method=method, rtol=10 * tolerance, atol=10 * tolerance
+            env.physics, y0s_np, inputs, dt, method=method, rtol=10 * tolerance, atol=10 * tolerance
         )
         entry = {
             "inputs": inputs,
@@ -366,11 +345,11 @@ def _run_study(config: StudyConfig, *, progress: bool) -> StudyResult:
         }
         if config.check_method is not None:
             check = reference_trajectories(
-                env.dynamics, y0s_np, inputs, dt, method=config.check_method, rtol=tolerance, atol=tolerance
+                env.physics, y0s_np, inputs, dt, method=config.check_method, rtol=tolerance, atol=tolerance
             )
             entry["check_discrepancy"] = float(np.max(np.abs(check - reference)))
         if schedule == "zero":
-            entry["reference_drifts"] = _invariant_drifts(env.dynamics, reference, y0s_np)
+            entry["reference_drifts"] = _invariant_drifts(env.physics, reference, y0s_np)
         schedules[schedule] = entry
 
     settings = [(sweep, setting, integrator) for sweep in sweeps for setting, integrator in sweep.integrators()]
@@ -379,16 +358,15 @@ def _run_study(config: StudyConfig, *, progress: bool) -> StudyResult:
     for sweep, setting, integrator in settings:
         # The env as a user would set it up with this solver.
         study_env = eqx.tree_at(lambda e: e.integrator, env, integrator)
-        parts = (study_env.integrator, study_env.dynamics, study_env.dt, _transition_options(study_env))
         per_step = evaluations_per_step(integrator.solver)
         for schedule, entry in schedules.items():
             inputs = jnp.asarray(entry["inputs"])
-            outputs = _batched_trajectories(*parts, y0s, inputs)  # compiles
+            outputs = _batched_trajectories(study_env, y0s, inputs)  # compiles
             jax.block_until_ready(outputs)
             times = []
             for _ in range(config.repeats):
                 start = time.perf_counter()
-                outputs = jax.block_until_ready(_batched_trajectories(*parts, y0s, inputs))
+                outputs = jax.block_until_ready(_batched_trajectories(study_env, y0s, inputs))
                 times.append(time.perf_counter() - start)
             ys, ok, steps, rejected = (np.asarray(x) for x in outputs)
             solver_ok = bool(np.all(ok))
@@ -432,7 +410,7 @@ def _run_study(config: StudyConfig, *, progress: bool) -> StudyResult:
                 "reference_floor": entry["reference_floor"],
             }
             if schedule == "zero" and solver_ok:
-                row.update(_invariant_drifts(env.dynamics, ys, y0s_np))
+                row.update(_invariant_drifts(env.physics, ys, y0s_np))
             rows.append(row)
         if bar is not None:
             bar.update(1)

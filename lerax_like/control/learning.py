@@ -17,7 +17,7 @@ import jax.numpy as jnp
 import jax.random as jr
 
 from .._types import Array, ArrayLike, Float, Int, Key
-from ..env import AbstractEnv, EnvState, _part_keys
+from ..env import AbstractEnv, EnvState, step_keys
 
 
 def _optax():
@@ -58,18 +58,17 @@ def policy_return(
     """
 
     def body(state, step_key):
-        # A key per part, as `AbstractEnv.step` gives them (none for a deterministic env).
-        observation_key, transition_key, reward_key = _part_keys(step_key, 3, env.stochastic)
-        observation = env.observation(state, key=observation_key)
+        # The observation before the step under that key's observation part, as `step`
+        # derives them (none for a deterministic env); then the step itself.
+        observation = env.observation(state, key=step_keys(step_key, env.stochastic).observation)
         action = policy(observation)
-        next_state, _ = env.transition(state, action, key=transition_key)
-        reward = env.reward(state, action, next_state, key=reward_key)
+        next_state, _, reward, _, _ = env.advance(state, action, key=step_key)
         if state_cost is not None:
             reward = reward - state_cost(next_state.y)
         return next_state, reward
 
-    step_keys = jr.split(key, horizon) if env.stochastic else None
-    _, rewards = jax.lax.scan(body, state, step_keys, length=horizon)
+    keys = jr.split(key, horizon) if env.stochastic else None
+    _, rewards = jax.lax.scan(body, state, keys, length=horizon)
     if rewarded_steps is not None:
         rewards = jnp.where(jnp.arange(horizon) < rewarded_steps, rewards, jnp.zeros_like(rewards))
     return jnp.sum(rewards)

@@ -21,7 +21,7 @@ import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
 
-from ..env import AbstractEnv, EnvState
+from ..env import AbstractEnv, EnvState, step_keys
 from ..spaces import Discrete
 
 
@@ -67,6 +67,7 @@ class HoldsScene:
 
     _split: SplitScene
     _jax_key: jax.Array | None
+    _initial_bounds: tuple[np.ndarray, np.ndarray]
 
     @property
     def scene(self) -> AbstractEnv:
@@ -76,6 +77,8 @@ class HoldsScene:
     @scene.setter
     def scene(self, scene: AbstractEnv) -> None:
         self._split = SplitScene(scene)
+        with float64():
+            self._initial_bounds = tuple(np.array(bound, dtype=np.float64) for bound in scene.initial_bounds)
         # The key of a stochastic scene's random parts starts again from seed 0 (as at
         # construction; `reset(seed=...)` reseeds it); a deterministic scene needs none.
         self._jax_key = self._split.key(0)
@@ -109,44 +112,26 @@ def _functions(treedef, static, layout):
             start += size
         return eqx.combine(jax.tree.unflatten(treedef, leaves), static)
 
-    def split(key, count, num_envs=None):
-        """The carried key and `count` keys (per env, given `num_envs`) for the scene's parts.
-
-        A deterministic scene carries no key (`None`, see `SplitScene.key`).
-        """
+    def next_key(key, num_envs=None):
+        """The carried key and this call's key (one per env, given `num_envs`); none for a
+        deterministic scene, which carries no key (see `SplitScene.key`)."""
         if key is None:
-            return key, (None,) * count
-        key, *parts = jr.split(key, count + 1)
-        if num_envs is not None:
-            parts = [jr.split(part, num_envs) for part in parts]
-        return key, tuple(parts)
+            return None, None
+        key, call_key = jr.split(key)
+        return key, (call_key if num_envs is None else jr.split(call_key, num_envs))
 
-    def transition(scene, y, steps, action, key):
-        state = EnvState(y=y, steps=steps)
-        _, (transition_key, reward_key, terminal_key) = split(key, 3)
-        next_state, info = scene.transition(state, action, key=transition_key)
-        reward = scene.reward(state, action, next_state, key=reward_key)
-        # As `AbstractEnv.step`: a failed solve, or a reward that overflows, ends the
-        # episode, and nothing non-finite is returned.
-        reward_ok = jnp.isfinite(reward)
-        reward = jnp.where(reward_ok, reward, jnp.zeros_like(reward))
-        info = {**info, "solver_ok": info["solver_ok"] & reward_ok}
-        terminated = scene.terminal(next_state, key=terminal_key) | ~info["solver_ok"]
-        return next_state.y, reward, terminated, info
-
-    def guard_observation(scene, y, steps, observation, terminated, info, key):
-        # A finite float64 state can still overflow in the float32 observation (a
-        # diverging solve passes 3.4e38 long before 1.8e308): flag it, end the episode
-        # and return the pre-step state's observation, returned finite one step before.
-        observation_ok = jnp.all(jnp.isfinite(observation))
-        observation = jnp.where(observation_ok, observation, observe_one(scene, y, steps, key))
-        info = {**info, "solver_ok": info["solver_ok"] & observation_ok}
-        return observation, terminated | ~observation_ok, info
+    def advance(scene, y, steps, action, key):
+        # The functional env's step semantics (`AbstractEnv.advance`), with the float32
+        # observation Gymnasium returns checked for finiteness after the cast: a finite
+        # float64 state can still overflow float32.
+        state, observation, reward, terminated, info = scene.advance(
+            EnvState(y=y, steps=steps), action, key=key, observation_dtype=jnp.float32
+        )
+        return state.y, observation, reward, terminated, info
 
     def observe_one(scene, y, steps, key):
-        observation = scene.observation(EnvState(y=y, steps=steps), key=key)
-        # Gymnasium computes in float64 and returns float32 observations.
-        return observation.astype(jnp.float32)
+        key = step_keys(key, scene.stochastic).observation
+        return scene.observation(EnvState(y=y, steps=steps), key=key).astype(jnp.float32)
 
     @jax.jit
     def step(parameters, inputs, key):
@@ -158,12 +143,8 @@ def _functions(treedef, static, layout):
         if isinstance(space, Discrete):
             action = action.astype(jnp.int64)
         steps, y = inputs[size].astype(jnp.int64), inputs[size + 1 :]
-        key, (step_key, observation_key) = split(key, 2)
-        next_y, reward, terminated, info = transition(scene, y, steps, action, step_key)
-        observation = observe_one(scene, next_y, steps + 1, observation_key)
-        observation, terminated, info = guard_observation(
-            scene, y, steps, observation, terminated, info, observation_key
-        )
+        key, step_key = next_key(key)
+        next_y, observation, reward, terminated, info = advance(scene, y, steps, action, step_key)
         # One array for the host: the next state, the (float32) observation, the reward,
         # the flag and the solver info.
         flags = (reward, terminated, info["solver_ok"], info["solver_steps"])
@@ -173,7 +154,7 @@ def _functions(treedef, static, layout):
     @jax.jit
     def observe(parameters, y, steps, key):
         scene = scene_of(parameters)
-        key, (observation_key,) = split(key, 1)
+        key, observation_key = next_key(key)
         return observe_one(scene, y, steps, observation_key), key
 
     @jax.jit
@@ -185,13 +166,15 @@ def _functions(treedef, static, layout):
         False. One compilation serves every time limit and every pattern of restarts.
         """
         scene = scene_of(parameters)
-        key, (step_keys, observation_keys) = split(key, 2, num_envs=y.shape[0])
-        next_y, reward, terminated, info = jax.vmap(transition, in_axes=(None, 0, 0, 0, 0))(
-            scene, y, steps, action, step_keys
+        key, keys = next_key(key, num_envs=y.shape[0])
+        next_y, observation, reward, terminated, info = jax.vmap(advance, in_axes=(None, 0, 0, 0, 0))(
+            scene, y, steps, action, keys
         )
+        # Restarted envs continue from `reset_y` with their fresh observation.
         next_y = jnp.where(reset_mask[:, None], reset_y, next_y)
-        previous_y, previous_steps = y, steps
         steps = jnp.where(reset_mask, 0, steps + 1)
+        fresh = jax.vmap(observe_one, in_axes=(None, 0, 0, 0))(scene, reset_y, steps, keys)
+        observation = jnp.where(reset_mask[:, None], fresh, observation)
         reward = jnp.where(reset_mask, 0, reward)
         terminated = terminated & ~reset_mask
         truncated = (steps >= max_episode_steps) & ~reset_mask
@@ -199,10 +182,6 @@ def _functions(treedef, static, layout):
             "solver_ok": info["solver_ok"] | reset_mask,
             "solver_steps": jnp.where(reset_mask, 0, info["solver_steps"]),
         }
-        observation = jax.vmap(observe_one, in_axes=(None, 0, 0, 0))(scene, next_y, steps, observation_keys)
-        observation, terminated, info = jax.vmap(guard_observation, in_axes=(None, 0, 0, 0, 0, 0, 0))(
-            scene, previous_y, previous_steps, observation, terminated, info, observation_keys
-        )
         # One array for the host besides the observation: the reward, the flags and the
         # solver info, one row each (rows of it are contiguous arrays on the host).
         flags = (reward, terminated, truncated, info["solver_ok"], info["solver_steps"])
@@ -212,7 +191,7 @@ def _functions(treedef, static, layout):
     @jax.jit
     def vector_observe(parameters, y, steps, key):
         scene = scene_of(parameters)
-        key, (observation_keys,) = split(key, 1, num_envs=y.shape[0])
+        key, observation_keys = next_key(key, num_envs=y.shape[0])
         observation = jax.vmap(observe_one, in_axes=(None, 0, 0, 0))(scene, y, steps, observation_keys)
         return observation, key
 

@@ -37,10 +37,8 @@ class GymnasiumEnv(HoldsScene, gymnasium.Env):
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 50}
 
     def __init__(self, spec: GymSpec, render_mode: str | None = None, **scene_kwargs: Any):
-        from .. import scenes
-
         self._gym_spec = spec
-        self.scene = build_scene(getattr(scenes, spec.scene), scene_kwargs)
+        self.scene = build_scene(spec.scene, scene_kwargs)
         with float64():
             self.action_space = to_gymnasium_space(self.scene.action_space)
             self.observation_space = to_gymnasium_space(self.scene.observation_space)
@@ -67,7 +65,7 @@ class GymnasiumEnv(HoldsScene, gymnasium.Env):
     def _warm_up(self) -> None:
         # Compile the step and the observation now, not in the first step of training.
         # A state drawn as reset draws it, from a generator of its own (np_random untouched).
-        y = self._gym_spec.initial_state(np.random.default_rng(0), None, 1)[:, 0]
+        y = self._gym_spec.initial_state(self._initial_bounds, np.random.default_rng(0), None, 1)[:, 0]
         action = self._action(self._zero_action())
         with float64():
             jax.block_until_ready(self._split.step(self._split.parameters, pack_step(y, 0, action), self._jax_key))
@@ -97,7 +95,7 @@ class GymnasiumEnv(HoldsScene, gymnasium.Env):
         super().reset(seed=seed)
         if seed is not None:
             self._jax_key = self._split.key(seed)
-        self.state = self._gym_spec.initial_state(self.np_random, options, 1)[:, 0]
+        self.state = self._gym_spec.initial_state(self._initial_bounds, self.np_random, options, 1)[:, 0]
         self._steps = 0
         self._last_action = None
         with float64():

@@ -20,17 +20,13 @@ def _make_vector_env(spec, **kwargs):
 
 
 def register_envs() -> tuple[str, ...]:
-    """Register every id of `SPECS` whose scene exists; return the ids now registered.
+    """Register every id of `SPECS` (every scene with a `GymnasiumSpec`); return the ids now registered.
 
     Called on `import lerax_like`. Idempotent: ids already in Gymnasium's registry are
     left as they are.
     """
-    from .. import scenes
-
     registered = []
     for spec in SPECS.values():
-        if not hasattr(scenes, spec.scene):
-            continue
         if spec.id not in gymnasium.registry:
             gymnasium.register(
                 id=spec.id,

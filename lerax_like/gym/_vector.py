@@ -43,8 +43,6 @@ class GymnasiumVectorEnv(HoldsScene, VectorEnv):
         render_mode: str | None = None,
         **scene_kwargs: Any,
     ):
-        from .. import scenes
-
         if not isinstance(num_envs, int) or num_envs < 1:
             raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
         if max_episode_steps is not None and (not isinstance(max_episode_steps, int) or max_episode_steps < 1):
@@ -52,7 +50,7 @@ class GymnasiumVectorEnv(HoldsScene, VectorEnv):
         self._gym_spec = spec
         self.num_envs = num_envs
         self.max_episode_steps = max_episode_steps
-        scene = build_scene(getattr(scenes, spec.scene), scene_kwargs)
+        scene = build_scene(spec.scene, scene_kwargs)
         self.scene = scene
         with float64():
             self.single_action_space = to_gymnasium_space(scene.action_space)
@@ -88,7 +86,7 @@ class GymnasiumVectorEnv(HoldsScene, VectorEnv):
 
     def _warm_up(self) -> None:
         # Compile the step and the observation now, not in the first step of training.
-        y = self._gym_spec.initial_state(np.random.default_rng(0), None, self.num_envs).T
+        y = self._gym_spec.initial_state(self._initial_bounds, np.random.default_rng(0), None, self.num_envs).T
         with float64():
             self._no_reset = jnp.zeros(self.num_envs, dtype=bool)
             self._time_limit = jnp.asarray(
@@ -132,7 +130,7 @@ class GymnasiumVectorEnv(HoldsScene, VectorEnv):
         if seed is not None:
             self._jax_key = self._split.key(seed)
         self._options = options
-        y = self._gym_spec.initial_state(self.np_random, options, self.num_envs).T
+        y = self._gym_spec.initial_state(self._initial_bounds, self.np_random, options, self.num_envs).T
         with float64():
             self._y = jnp.asarray(y)
             self._steps = jnp.zeros(self.num_envs, dtype=int)
@@ -153,7 +151,7 @@ class GymnasiumVectorEnv(HoldsScene, VectorEnv):
                 # Gymnasium's vector CartPole draws only when some env restarts, for those envs.
                 reset_mask = self._prev_done
                 reset_y = np.zeros(self._y.shape)
-                reset_y[reset_mask] = self._gym_spec.initial_state(self.np_random, self._options, restarts).T
+                reset_y[reset_mask] = self._gym_spec.initial_state(self._initial_bounds, self.np_random, self._options, restarts).T
             else:
                 reset_mask, reset_y = self._no_reset, self._y
             self._y, self._steps, observation, outcome, self._jax_key = self._split.vector_step(

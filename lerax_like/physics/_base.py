@@ -3,14 +3,16 @@ from typing import ClassVar
 
 import equinox as eqx
 
+from .._fields import AbstractParametrised
+
 from .._types import Input, Scalar, ScalarLike, State
 
 
-class AbstractDynamics(eqx.Module):
+class AbstractDynamics(AbstractParametrised):
     """Physics as a vector field `dy/dt = f(t, y, u)`.
 
-    Subclasses hold their physical parameters as array fields (differentiable leaves)
-    and implement `vector_field`. They know nothing of rewards, observations, action
+    Subclasses declare their physical parameters as fields (`parameter(default, range)`:
+    differentiable leaves, checked by name at construction) and implement `vector_field`. They know nothing of rewards, observations, action
     spaces or rendering: those belong to a scene.
 
     A second-order (mechanical) system declares `velocity_indices`, the components of
@@ -33,3 +35,9 @@ class AbstractConservativeDynamics(AbstractDynamics):
     def energy(self, y: State) -> Scalar:
         """Total mechanical energy of the state `y`."""
         raise NotImplementedError
+
+    @property
+    def conserves_energy(self) -> bool:
+        """Whether `energy` is conserved under zero input (False for a variant of the
+        equations that drops a term, such as Acrobot's `equations="nips"`)."""
+        return True

@@ -3,7 +3,7 @@ from typing import ClassVar, Literal
 import equinox as eqx
 import jax.numpy as jnp
 
-from .._checks import as_parameter, check_positive
+from .._fields import POSITIVE, option, parameter
 from .._types import Input, Scalar, ScalarLike, State
 from ._base import AbstractConservativeDynamics
 
@@ -24,45 +24,21 @@ class AcrobotDynamics(AbstractConservativeDynamics):
 
     velocity_indices: ClassVar[tuple[int, ...]] = (2, 3)
 
-    gravity: Scalar
-    link_length_1: Scalar
-    link_mass_1: Scalar
-    link_mass_2: Scalar
-    link_com_position_1: Scalar
-    link_com_position_2: Scalar
-    link_moment_of_inertia_1: Scalar
-    link_moment_of_inertia_2: Scalar
-    equations: Literal["book", "nips"] = eqx.field(static=True)
+    gravity: Scalar = parameter(9.8, POSITIVE)
+    link_length_1: Scalar = parameter(1.0, POSITIVE)
+    link_mass_1: Scalar = parameter(1.0, POSITIVE)
+    link_mass_2: Scalar = parameter(1.0, POSITIVE)
+    link_com_position_1: Scalar = parameter(0.5, POSITIVE)
+    link_com_position_2: Scalar = parameter(0.5, POSITIVE)
+    link_moment_of_inertia_1: Scalar = parameter(1.0, POSITIVE)
+    link_moment_of_inertia_2: Scalar = parameter(1.0, POSITIVE)
+    equations: Literal["book", "nips"] = option("book", ("book", "nips"))
 
-    def __init__(
-        self,
-        gravity: ScalarLike = 9.8,
-        link_length_1: ScalarLike = 1.0,
-        link_mass_1: ScalarLike = 1.0,
-        link_mass_2: ScalarLike = 1.0,
-        link_com_position_1: ScalarLike = 0.5,
-        link_com_position_2: ScalarLike = 0.5,
-        link_moment_of_inertia_1: ScalarLike = 1.0,
-        link_moment_of_inertia_2: ScalarLike = 1.0,
-        equations: Literal["book", "nips"] = "book",
-    ):
-        parameters = dict(
-            gravity=gravity,
-            link_length_1=link_length_1,
-            link_mass_1=link_mass_1,
-            link_mass_2=link_mass_2,
-            link_com_position_1=link_com_position_1,
-            link_com_position_2=link_com_position_2,
-            link_moment_of_inertia_1=link_moment_of_inertia_1,
-            link_moment_of_inertia_2=link_moment_of_inertia_2,
-        )
-        for name, value in parameters.items():
-            check_positive(value, name)
-        if equations not in ("book", "nips"):
-            raise ValueError(f"equations must be 'book' or 'nips', got {equations!r}")
-        for name, value in parameters.items():
-            setattr(self, name, as_parameter(value, name))
-        self.equations = equations
+    @property
+    def conserves_energy(self) -> bool:
+        # The NeurIPS variant drops a Coriolis term: its `energy` is not conserved.
+        return self.equations == "book"
+
 
     def _mass_matrix(self, theta_2: Scalar) -> tuple[Scalar, Scalar, Scalar]:
         m1, m2 = self.link_mass_1, self.link_mass_2

@@ -2,7 +2,7 @@ from typing import ClassVar
 
 import jax.numpy as jnp
 
-from .._checks import as_parameter, check_positive
+from .._fields import POSITIVE, parameter
 from .._types import Input, Scalar, ScalarLike, State
 from ._base import AbstractConservativeDynamics
 
@@ -20,11 +20,8 @@ class MountainCarDynamics(AbstractConservativeDynamics):
 
     velocity_indices: ClassVar[tuple[int, ...]] = (1,)
 
-    gravity: Scalar
+    gravity: Scalar = parameter(0.0025, POSITIVE)
 
-    def __init__(self, gravity: ScalarLike = 0.0025):
-        check_positive(gravity, "gravity")
-        self.gravity = as_parameter(gravity, "gravity")
 
     def vector_field(self, t: ScalarLike, y: State, u: Input) -> State:
         del t

@@ -2,7 +2,7 @@ from typing import ClassVar
 
 import jax.numpy as jnp
 
-from .._checks import as_parameter, check_positive
+from .._fields import POSITIVE, parameter
 from .._types import Input, Scalar, ScalarLike, State
 from ._base import AbstractConservativeDynamics
 
@@ -18,16 +18,10 @@ class PendulumDynamics(AbstractConservativeDynamics):
 
     velocity_indices: ClassVar[tuple[int, ...]] = (1,)
 
-    gravity: Scalar
-    mass: Scalar
-    length: Scalar
+    gravity: Scalar = parameter(10.0, POSITIVE)
+    mass: Scalar = parameter(1.0, POSITIVE)
+    length: Scalar = parameter(1.0, POSITIVE)
 
-    def __init__(self, gravity: ScalarLike = 10.0, mass: ScalarLike = 1.0, length: ScalarLike = 1.0):
-        for name, value in [("gravity", gravity), ("mass", mass), ("length", length)]:
-            check_positive(value, name)
-        self.gravity = as_parameter(gravity, "gravity")
-        self.mass = as_parameter(mass, "mass")
-        self.length = as_parameter(length, "length")
 
     def vector_field(self, t: ScalarLike, y: State, u: Input) -> State:
         del t

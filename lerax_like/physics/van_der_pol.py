@@ -1,6 +1,6 @@
 import jax.numpy as jnp
 
-from .._checks import as_parameter, check_nonnegative
+from .._fields import NONNEGATIVE, parameter
 from .._types import Input, Scalar, ScalarLike, State
 from ._base import AbstractDynamics
 
@@ -21,12 +21,9 @@ class VanDerPolDynamics(AbstractDynamics):
     order 1.
     """
 
-    mu: Scalar
+    # mu = 0 is the harmonic oscillator, a valid (if not very interesting) limit.
+    mu: Scalar = parameter(1.0, NONNEGATIVE)
 
-    def __init__(self, mu: ScalarLike = 1.0):
-        # mu = 0 is the harmonic oscillator, a valid (if not very interesting) limit.
-        check_nonnegative(mu, "mu")
-        self.mu = as_parameter(mu, "mu")
 
     def vector_field(self, t: ScalarLike, y: State, u: Input) -> State:
         del t

@@ -1,20 +1,14 @@
 import math
-from typing import ClassVar, Literal
+from typing import ClassVar, final
 
-import diffrax
-import equinox as eqx
 import jax.numpy as jnp
 
-from .._checks import as_parameter, check_positive, check_positive_or_inf
-from .._random import uniform
-from .._types import Array, BoolScalar, Input, Key, Scalar, ScalarLike, State
-from ..env import AbstractEnv, EnvState
-from ..integrate import Integrator, make_integrator
+from .._fields import POSITIVE, POSITIVE_OR_INF, parameter
+from .._types import Array, BoolScalar, Input, Key, Scalar, State
+from ..env import AbstractEnv, EnvState, GymnasiumSpec, dynamics, episode_limit, integrator, time_step
+from ..integrate import Integrator
 from ..physics import AcrobotDynamics
 from ..spaces import Box, Discrete
-
-
-SolverLike = "str | diffrax.AbstractSolver | Integrator"
 
 
 def _wrap(x: Scalar, low: float, high: float) -> Scalar:
@@ -30,6 +24,7 @@ def _wrap(x: Scalar, low: float, high: float) -> Scalar:
     return jnp.where(x < low, x + below * period, x)
 
 
+@final
 class Acrobot(AbstractEnv):
     """Swing the tip of a two-link arm, actuated at the elbow only, above a line (Acrobot-v1).
 
@@ -58,65 +53,41 @@ class Acrobot(AbstractEnv):
     Truncated after `max_episode_steps` (500) steps.
 
     ## Arguments
-    The physical parameters of `AcrobotDynamics` (`gravity`, `link_length_1`,
+    `dynamics` (an `AcrobotDynamics`) or its parameters flat (`gravity`, `link_length_1`,
     `link_mass_1`, `link_mass_2`, `link_com_position_1`, `link_com_position_2`,
     `link_moment_of_inertia_1`, `link_moment_of_inertia_2`, `equations`), `torque` (1),
-    `max_velocity_1` (4 pi), `max_velocity_2` (9 pi), `dt` (0.2), `solver`,
-    `stepsize_controller`, `max_episode_steps`. Gymnasium's optional torque noise
+    `max_velocity_1` (4 pi), `max_velocity_2` (9 pi), `dt` (0.2), `integrator` or
+    `solver` with `stepsize_controller`, `max_episode_steps`. Gymnasium's optional torque noise
     (`torque_noise_max`, 0 by default there) is not modelled.
     """
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
+    gymnasium: ClassVar[GymnasiumSpec] = GymnasiumSpec(
+        name="Acrobot-v1",
+        max_episode_steps=500,
+        reward_threshold=-100.0,
+        renderer="gymnasium.envs.classic_control.acrobot:AcrobotEnv",
+        attributes=(
+            ("dt", "dt"),
+            ("LINK_LENGTH_1", "dynamics.link_length_1"),
+            ("LINK_MASS_1", "dynamics.link_mass_1"),
+            ("LINK_MASS_2", "dynamics.link_mass_2"),
+            ("LINK_COM_POS_1", "dynamics.link_com_position_1"),
+            ("LINK_COM_POS_2", "dynamics.link_com_position_2"),
+            ("LINK_MOI", "dynamics.link_moment_of_inertia_1"),
+            ("MAX_VEL_1", "max_velocity_1"),
+            ("MAX_VEL_2", "max_velocity_2"),
+        ),
+        float32_start=True,
+    )
 
-    dynamics: AcrobotDynamics
-    integrator: Integrator
-    dt: Scalar
-    torque: Scalar
-    max_velocity_1: Scalar
-    max_velocity_2: Scalar
-    max_episode_steps: int | None = eqx.field(static=True)
-
-    def __init__(
-        self,
-        *,
-        gravity: ScalarLike = 9.8,
-        link_length_1: ScalarLike = 1.0,
-        link_mass_1: ScalarLike = 1.0,
-        link_mass_2: ScalarLike = 1.0,
-        link_com_position_1: ScalarLike = 0.5,
-        link_com_position_2: ScalarLike = 0.5,
-        link_moment_of_inertia_1: ScalarLike = 1.0,
-        link_moment_of_inertia_2: ScalarLike = 1.0,
-        equations: Literal["book", "nips"] = "book",
-        torque: ScalarLike = 1.0,
-        max_velocity_1: ScalarLike = 4 * math.pi,
-        max_velocity_2: ScalarLike = 9 * math.pi,
-        dt: ScalarLike = 0.2,
-        solver: SolverLike = "rk4",
-        stepsize_controller: diffrax.AbstractStepSizeController | None = None,
-        max_episode_steps: int | None = 500,
-    ):
-        check_positive(torque, "torque")
-        check_positive_or_inf(max_velocity_1, "max_velocity_1")
-        check_positive_or_inf(max_velocity_2, "max_velocity_2")
-        check_positive(dt, "dt")
-        self.dynamics = AcrobotDynamics(
-            gravity=gravity,
-            link_length_1=link_length_1,
-            link_mass_1=link_mass_1,
-            link_mass_2=link_mass_2,
-            link_com_position_1=link_com_position_1,
-            link_com_position_2=link_com_position_2,
-            link_moment_of_inertia_1=link_moment_of_inertia_1,
-            link_moment_of_inertia_2=link_moment_of_inertia_2,
-            equations=equations,
-        )
-        self.integrator = make_integrator(solver, stepsize_controller)
-        self.dt = as_parameter(dt, "dt")
-        self.torque = as_parameter(torque, "torque")
-        self.max_velocity_1 = as_parameter(max_velocity_1, "max_velocity_1")
-        self.max_velocity_2 = as_parameter(max_velocity_2, "max_velocity_2")
-        self.max_episode_steps = max_episode_steps
+    dynamics: AcrobotDynamics = dynamics(AcrobotDynamics)
+    integrator: Integrator = integrator("rk4")
+    torque: Scalar = parameter(1.0, POSITIVE)
+    max_velocity_1: Scalar = parameter(4 * math.pi, POSITIVE_OR_INF)
+    max_velocity_2: Scalar = parameter(9 * math.pi, POSITIVE_OR_INF)
+    dt: Scalar = time_step(0.2)
+    max_episode_steps: int | None = episode_limit(500)
 
     @property
     def action_space(self) -> Discrete:
@@ -128,9 +99,9 @@ class Acrobot(AbstractEnv):
         high = jnp.stack([one, one, one, one, self.max_velocity_1, self.max_velocity_2])
         return Box(-high, high)
 
-    def initial(self, *, key: Key) -> EnvState:
-        y = uniform(key, (4,), self.dt.dtype, -0.1, 0.1)
-        return EnvState(y=y, steps=jnp.zeros((), dtype=int))
+    @property
+    def initial_bounds(self) -> tuple[Array, Array]:
+        return jnp.full(4, -0.1, self.dt.dtype), jnp.full(4, 0.1, self.dt.dtype)
 
     def physical_input(self, action: Array) -> Input:
         return ((jnp.asarray(action).astype(self.torque.dtype) - 1.0) * self.torque)[None]
@@ -146,18 +117,22 @@ class Acrobot(AbstractEnv):
             ]
         )
 
-    def observation(self, state: EnvState, *, key: Key) -> Array:
+    def observation(self, state: EnvState, *, key: Key | None) -> Array:
         del key
         theta_1, theta_2, dtheta_1, dtheta_2 = state.y
         return jnp.stack(
             [jnp.cos(theta_1), jnp.sin(theta_1), jnp.cos(theta_2), jnp.sin(theta_2), dtheta_1, dtheta_2]
         )
 
-    def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key) -> Scalar:
+    def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
         del state, action
         return jnp.where(self.terminal(next_state, key=key), 0.0, -1.0).astype(self.dt.dtype)
 
-    def terminal(self, state: EnvState, *, key: Key) -> BoolScalar:
+    @property
+    def worst_reward(self) -> Scalar:
+        return -jnp.ones((), dtype=self.dt.dtype)
+
+    def terminal(self, state: EnvState, *, key: Key | None) -> BoolScalar:
         del key
         theta_1, theta_2 = state.y[0], state.y[1]
         return -jnp.cos(theta_1) - jnp.cos(theta_2 + theta_1) > 1.0

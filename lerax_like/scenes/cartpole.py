@@ -1,47 +1,26 @@
 import math
-from typing import ClassVar, Literal
+from typing import ClassVar, Literal, final
 
-import diffrax
 import equinox as eqx
 import jax.numpy as jnp
 
-from .._checks import as_parameter, check_nonnegative, check_positive, check_positive_or_inf
-from .._random import uniform
-from .._types import Array, BoolScalar, Input, Key, Scalar, ScalarLike
-from ..env import AbstractEnv, EnvState
-from ..integrate import Integrator, make_integrator
+from .._fields import NONNEGATIVE, POSITIVE, POSITIVE_OR_INF, option, parameter
+from .._types import Array, BoolScalar, Input, Key, Scalar
+from ..env import AbstractEnv, EnvState, GymnasiumSpec, dynamics, episode_limit, integrator, time_step
+from ..integrate import Integrator
 from ..physics import CartPoleDynamics
+from ..physics.forces import EndStops, JointDamping
 from ..spaces import Box, Discrete
 
 
-SolverLike = "str | diffrax.AbstractSolver | Integrator"
-
-
-def _cartpole_parts(
-    gravity, cart_mass, pole_mass, half_length, force_mag, theta_threshold_radians, x_threshold, dt,
-    solver, stepsize_controller, joint_damping=0.0, end_stop_stiffness=0.0, end_stop_damping=0.0,
-    track_limit=2.4,
-) -> tuple[CartPoleDynamics, Integrator, Scalar, Scalar, Scalar, Scalar]:
-    check_positive(force_mag, "force_mag")
-    check_positive_or_inf(theta_threshold_radians, "theta_threshold_radians")
-    check_positive_or_inf(x_threshold, "x_threshold")
-    check_positive(dt, "dt")
-    return (
-        CartPoleDynamics(
-            gravity=gravity, cart_mass=cart_mass, pole_mass=pole_mass, half_length=half_length,
-            joint_damping=joint_damping, end_stop_stiffness=end_stop_stiffness,
-            end_stop_damping=end_stop_damping, track_limit=track_limit,
-        ),
-        make_integrator(solver, stepsize_controller),
-        as_parameter(dt, "dt"),
-        as_parameter(force_mag, "force_mag"),
-        as_parameter(theta_threshold_radians, "theta_threshold_radians"),
-        as_parameter(x_threshold, "x_threshold"),
-    )
+_TWELVE_DEGREES = 12 * 2 * math.pi / 360
 
 
 class AbstractCartPole(AbstractEnv):
-    """What the discrete and continuous cart-poles share: physics, start, observation, end."""
+    """What the discrete and continuous cart-poles share: physics, add-ons, start, observation, end."""
+
+    stochastic: ClassVar[bool] = False  # nothing random but the start
+    addons: ClassVar[tuple[type, ...]] = (JointDamping, EndStops)
 
     dynamics: eqx.AbstractVar[CartPoleDynamics]
     force_mag: eqx.AbstractVar[Scalar]
@@ -50,20 +29,18 @@ class AbstractCartPole(AbstractEnv):
 
     @property
     def observation_space(self) -> Box:
-        high = jnp.stack(
-            [2 * self.x_threshold, jnp.inf, 2 * self.theta_threshold_radians, jnp.inf]
-        )
+        high = jnp.stack([2 * self.x_threshold, jnp.inf, 2 * self.theta_threshold_radians, jnp.inf])
         return Box(-high, high)
 
-    def initial(self, *, key: Key) -> EnvState:
-        y = uniform(key, (4,), self.dt.dtype, -0.05, 0.05)
-        return EnvState(y=y, steps=jnp.zeros((), dtype=int))
+    @property
+    def initial_bounds(self) -> tuple[Array, Array]:
+        return jnp.full(4, -0.05, self.dt.dtype), jnp.full(4, 0.05, self.dt.dtype)
 
-    def observation(self, state: EnvState, *, key: Key) -> Array:
+    def observation(self, state: EnvState, *, key: Key | None) -> Array:
         del key
         return state.y
 
-    def terminal(self, state: EnvState, *, key: Key) -> BoolScalar:
+    def terminal(self, state: EnvState, *, key: Key | None) -> BoolScalar:
         del key
         x, _, theta, _ = state.y
         return (
@@ -74,6 +51,19 @@ class AbstractCartPole(AbstractEnv):
         )
 
 
+_CARTPOLE_ATTRIBUTES = (
+    ("gravity", "dynamics.gravity"),
+    ("masscart", "dynamics.cart_mass"),
+    ("masspole", "dynamics.pole_mass"),
+    ("length", "dynamics.half_length"),
+    ("force_mag", "force_mag"),
+    ("tau", "dt"),
+    ("theta_threshold_radians", "theta_threshold_radians"),
+    ("x_threshold", "x_threshold"),
+)
+
+
+@final
 class CartPole(AbstractCartPole):
     """Balance a pole on a cart by pushing the cart left or right (Gymnasium's CartPole-v1).
 
@@ -101,55 +91,33 @@ class CartPole(AbstractCartPole):
     Truncated after `max_episode_steps` (500) steps.
 
     ## Arguments
-    `gravity`, `cart_mass`, `pole_mass`, `half_length`, `force_mag`,
-    `theta_threshold_radians`, `x_threshold`, `dt`, `solver` (a preset name, a diffrax
-    solver or an `Integrator`), `stepsize_controller`, `max_episode_steps`.
-    Stiff options of real rigs, off (0) by default so that Gymnasium's step is kept:
-    `joint_damping` (hinge friction, N m s/rad; 300 is very stiff), `end_stop_stiffness`
-    and `end_stop_damping` (one-sided spring-dampers at `x = +-track_limit`, stiffness up
-    to 1e6 N/m; a contact), `track_limit` (m, the stops' position, default 2.4; set
-    `x_threshold=inf` to let the cart reach them). See `CartPoleDynamics`; stiff settings
-    need an adaptive solver (`"tsit5"`) or an implicit one (`"kvaerno5"`).
+    `dynamics` (a `CartPoleDynamics`), or its parameters flat: `gravity`, `cart_mass`,
+    `pole_mass`, `half_length`. `force_mag`, `theta_threshold_radians`, `x_threshold`,
+    `dt`, `integrator` or `solver` (a preset name or a diffrax solver) with
+    `stepsize_controller`, `max_episode_steps`.
+    Add-ons of real rigs, absent unless given (see `lerax_like.physics.forces`):
+    `joint_damping` (hinge friction, N m s/rad; 300 is very stiff), `end_stop_stiffness`,
+    `end_stop_damping` and `track_limit` (one-sided spring-dampers at `x = +-track_limit`,
+    stiffness up to 1e6 N/m; a contact; set `x_threshold=inf` to let the cart reach them).
+    Stiff settings need an adaptive solver (`"tsit5"`) or an implicit one (`"kvaerno5"`).
     """
 
-    stochastic: ClassVar[bool] = False  # nothing random but the start
+    gymnasium: ClassVar[GymnasiumSpec] = GymnasiumSpec(
+        name="CartPole-v1",
+        max_episode_steps=500,
+        reward_threshold=475.0,
+        renderer="gymnasium.envs.classic_control.cartpole:CartPoleEnv",
+        attributes=_CARTPOLE_ATTRIBUTES,
+    )
 
-    dynamics: CartPoleDynamics
-    integrator: Integrator
-    dt: Scalar
-    force_mag: Scalar
-    theta_threshold_radians: Scalar
-    x_threshold: Scalar
-    max_episode_steps: int | None = eqx.field(static=True)
-
-    def __init__(
-        self,
-        *,
-        gravity: ScalarLike = 9.8,
-        cart_mass: ScalarLike = 1.0,
-        pole_mass: ScalarLike = 0.1,
-        half_length: ScalarLike = 0.5,
-        force_mag: ScalarLike = 10.0,
-        theta_threshold_radians: ScalarLike = 12 * 2 * math.pi / 360,
-        x_threshold: ScalarLike = 2.4,
-        dt: ScalarLike = 0.02,
-        solver: SolverLike = "euler",
-        stepsize_controller: diffrax.AbstractStepSizeController | None = None,
-        max_episode_steps: int | None = 500,
-        joint_damping: ScalarLike = 0.0,
-        end_stop_stiffness: ScalarLike = 0.0,
-        end_stop_damping: ScalarLike = 0.0,
-        track_limit: ScalarLike = 2.4,
-    ):
-        (
-            self.dynamics, self.integrator, self.dt, self.force_mag,
-            self.theta_threshold_radians, self.x_threshold,
-        ) = _cartpole_parts(
-            gravity, cart_mass, pole_mass, half_length, force_mag, theta_threshold_radians,
-            x_threshold, dt, solver, stepsize_controller, joint_damping, end_stop_stiffness,
-            end_stop_damping, track_limit,
-        )
-        self.max_episode_steps = max_episode_steps
+    dynamics: CartPoleDynamics = dynamics(CartPoleDynamics)
+    integrator: Integrator = integrator("euler")
+    forces: tuple = ()
+    force_mag: Scalar = parameter(10.0, POSITIVE)
+    theta_threshold_radians: Scalar = parameter(_TWELVE_DEGREES, POSITIVE_OR_INF)
+    x_threshold: Scalar = parameter(2.4, POSITIVE_OR_INF)
+    dt: Scalar = time_step(0.02)
+    max_episode_steps: int | None = episode_limit(500)
 
     @property
     def action_space(self) -> Discrete:
@@ -158,11 +126,16 @@ class CartPole(AbstractCartPole):
     def physical_input(self, action: Array) -> Input:
         return jnp.where(action == 1, self.force_mag, -self.force_mag)[None]
 
-    def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key) -> Scalar:
+    def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
         del state, action, next_state, key
         return jnp.ones((), dtype=self.dt.dtype)
 
+    @property
+    def worst_reward(self) -> Scalar:
+        return jnp.ones((), dtype=self.dt.dtype)
 
+
+@final
 class CartPoleContinuous(AbstractCartPole):
     """CartPole with a continuous force: action `a` in `[-1, 1]` pushes with `a * force_mag` newtons.
 
@@ -188,56 +161,22 @@ class CartPoleContinuous(AbstractCartPole):
     unbounded task (swing-up, say).
 
     ## Arguments
-    Those of `CartPole` (the stiff options included), plus `reward` and `action_cost` (>= 0).
+    Those of `CartPole` (the add-ons included), plus `reward` and `action_cost` (>= 0).
     """
 
-    stochastic: ClassVar[bool] = False  # nothing random but the start
+    # `reward` is the keyword users know; the field is `reward_kind`, as `reward` is the method.
+    aliases: ClassVar[tuple[tuple[str, str], ...]] = (("reward", "reward_kind"),)
 
-    dynamics: CartPoleDynamics
-    integrator: Integrator
-    dt: Scalar
-    force_mag: Scalar
-    theta_threshold_radians: Scalar
-    x_threshold: Scalar
-    action_cost: Scalar
-    max_episode_steps: int | None = eqx.field(static=True)
-    reward_kind: Literal["gymnasium", "smooth"] = eqx.field(static=True)
-
-    def __init__(
-        self,
-        *,
-        gravity: ScalarLike = 9.8,
-        cart_mass: ScalarLike = 1.0,
-        pole_mass: ScalarLike = 0.1,
-        half_length: ScalarLike = 0.5,
-        force_mag: ScalarLike = 10.0,
-        theta_threshold_radians: ScalarLike = 12 * 2 * math.pi / 360,
-        x_threshold: ScalarLike = 2.4,
-        dt: ScalarLike = 0.02,
-        solver: SolverLike = "euler",
-        stepsize_controller: diffrax.AbstractStepSizeController | None = None,
-        max_episode_steps: int | None = 500,
-        reward: Literal["gymnasium", "smooth"] = "gymnasium",
-        action_cost: ScalarLike = 1e-3,
-        joint_damping: ScalarLike = 0.0,
-        end_stop_stiffness: ScalarLike = 0.0,
-        end_stop_damping: ScalarLike = 0.0,
-        track_limit: ScalarLike = 2.4,
-    ):
-        (
-            self.dynamics, self.integrator, self.dt, self.force_mag,
-            self.theta_threshold_radians, self.x_threshold,
-        ) = _cartpole_parts(
-            gravity, cart_mass, pole_mass, half_length, force_mag, theta_threshold_radians,
-            x_threshold, dt, solver, stepsize_controller, joint_damping, end_stop_stiffness,
-            end_stop_damping, track_limit,
-        )
-        if reward not in ("gymnasium", "smooth"):
-            raise ValueError(f"reward must be 'gymnasium' or 'smooth', got {reward!r}")
-        check_nonnegative(action_cost, "action_cost")
-        self.action_cost = as_parameter(action_cost, "action_cost")
-        self.max_episode_steps = max_episode_steps
-        self.reward_kind = reward
+    dynamics: CartPoleDynamics = dynamics(CartPoleDynamics)
+    integrator: Integrator = integrator("euler")
+    forces: tuple = ()
+    force_mag: Scalar = parameter(10.0, POSITIVE)
+    theta_threshold_radians: Scalar = parameter(_TWELVE_DEGREES, POSITIVE_OR_INF)
+    x_threshold: Scalar = parameter(2.4, POSITIVE_OR_INF)
+    action_cost: Scalar = parameter(1e-3, NONNEGATIVE)
+    dt: Scalar = time_step(0.02)
+    max_episode_steps: int | None = episode_limit(500)
+    reward_kind: Literal["gymnasium", "smooth"] = option("gymnasium", ("gymnasium", "smooth"))
 
     @property
     def action_space(self) -> Box:
@@ -246,9 +185,15 @@ class CartPoleContinuous(AbstractCartPole):
     def physical_input(self, action: Array) -> Input:
         return self.force_mag * jnp.clip(jnp.reshape(action, (1,)), -1.0, 1.0)
 
-    def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key) -> Scalar:
+    def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
         del state, key
         if self.reward_kind == "gymnasium":
             return jnp.ones((), dtype=self.dt.dtype)
         force = self.physical_input(action)[0]
         return jnp.cos(next_state.y[2]) - self.action_cost * jnp.abs(force)
+
+    @property
+    def worst_reward(self) -> Scalar:
+        if self.reward_kind == "gymnasium":
+            return jnp.ones((), dtype=self.dt.dtype)
+        return -1.0 - self.action_cost * self.force_mag

@@ -1,19 +1,22 @@
 import math
-from typing import ClassVar, Literal
+from typing import ClassVar, Literal, final
 
-import diffrax
-import equinox as eqx
 import jax.numpy as jnp
 
-from .._checks import as_parameter, check_nonnegative, check_positive, check_positive_or_inf
-from .._random import uniform
-from .._types import Array, BoolScalar, Input, Key, Scalar, ScalarLike
-from ..env import AbstractEnv, EnvState
-from ..integrate import Integrator, make_integrator
+from .._fields import NONNEGATIVE, POSITIVE, POSITIVE_OR_INF, option, parameter
+from .._types import Array, BoolScalar, Input, Key, Scalar
+from ..env import AbstractEnv, EnvState, dynamics, episode_limit, integrator, time_step
+from ..integrate import Integrator
 from ..physics.chain import CartChainDynamics
+from ..physics.forces import EndStops, JointDamping
 from ..spaces import Box
 
 
+def _track_default(values) -> float:
+    return 2.4 if values["task"] == "balance" else math.inf
+
+
+@final
 class DoubleCartPole(AbstractEnv):
     """Balance, or swing up, two poles in a chain on a cart by pushing the cart.
 
@@ -51,65 +54,30 @@ class DoubleCartPole(AbstractEnv):
     Truncated after `max_episode_steps` (500) steps.
 
     ## Arguments
-    `task` ("balance" or "swing_up"), `cart_mass`, `pole_masses` (2,), `pole_lengths` (2,)
-    (full lengths), `gravity`, `force_mag`, `theta_threshold_radians` (12 degrees),
-    `x_threshold` (2.4 m for balance, `inf` for swing-up unless given), `action_cost`,
-    `dt`, `solver` (a preset name, a diffrax solver or an `Integrator`; default "rk4"),
-    `stepsize_controller`, `max_episode_steps`.
+    `task` ("balance" or "swing_up"), `dynamics` (a two-pole `CartChainDynamics`) or its
+    parameters flat: `cart_mass`, `pole_masses` (2,), `pole_lengths` (2,) (full lengths),
+    `gravity`. `force_mag`, `theta_threshold_radians` (12 degrees), `x_threshold` (2.4 m
+    for balance, `inf` for swing-up unless given), `action_cost`, `dt`, `integrator` or
+    `solver` (a preset name or a diffrax solver; default "rk4") with
+    `stepsize_controller`, `max_episode_steps`. Add-ons (absent unless given, see
+    `lerax_like.physics.forces`): `joint_damping` (every joint's damper acts on the rate
+    of its two neighbours, the cart being the first pole's), `end_stop_stiffness`,
+    `end_stop_damping`, `track_limit`.
     """
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
+    addons: ClassVar[tuple[type, ...]] = (JointDamping, EndStops)
 
-    dynamics: CartChainDynamics
-    integrator: Integrator
-    dt: Scalar
-    force_mag: Scalar
-    theta_threshold_radians: Scalar
-    x_threshold: Scalar
-    action_cost: Scalar
-    max_episode_steps: int | None = eqx.field(static=True)
-    task: Literal["balance", "swing_up"] = eqx.field(static=True)
-
-    def __init__(
-        self,
-        *,
-        task: Literal["balance", "swing_up"] = "balance",
-        cart_mass: ScalarLike = 1.0,
-        pole_masses=(0.1, 0.1),
-        pole_lengths=(1.0, 1.0),
-        gravity: ScalarLike = 9.81,
-        force_mag: ScalarLike = 20.0,
-        theta_threshold_radians: ScalarLike = 12 * 2 * math.pi / 360,
-        x_threshold: ScalarLike | None = None,
-        action_cost: ScalarLike = 1e-3,
-        dt: ScalarLike = 0.02,
-        solver: "str | diffrax.AbstractSolver | Integrator" = "rk4",
-        stepsize_controller: diffrax.AbstractStepSizeController | None = None,
-        max_episode_steps: int | None = 500,
-    ):
-        if task not in ("balance", "swing_up"):
-            raise ValueError(f"task must be 'balance' or 'swing_up', got {task!r}")
-        if x_threshold is None:
-            x_threshold = 2.4 if task == "balance" else math.inf
-        dynamics = CartChainDynamics(
-            cart_mass=cart_mass, pole_masses=pole_masses, pole_lengths=pole_lengths, gravity=gravity
-        )
-        if dynamics.n_links != 2:
-            raise ValueError(f"pole_masses and pole_lengths must have shape (2,), got {dynamics.pole_masses.shape}")
-        check_positive(force_mag, "force_mag")
-        check_positive_or_inf(theta_threshold_radians, "theta_threshold_radians")
-        check_positive_or_inf(x_threshold, "x_threshold")
-        check_nonnegative(action_cost, "action_cost")
-        check_positive(dt, "dt")
-        self.dynamics = dynamics
-        self.integrator = make_integrator(solver, stepsize_controller)
-        self.dt = as_parameter(dt, "dt")
-        self.force_mag = as_parameter(force_mag, "force_mag")
-        self.theta_threshold_radians = as_parameter(theta_threshold_radians, "theta_threshold_radians")
-        self.x_threshold = as_parameter(x_threshold, "x_threshold")
-        self.action_cost = as_parameter(action_cost, "action_cost")
-        self.max_episode_steps = max_episode_steps
-        self.task = task
+    task: Literal["balance", "swing_up"] = option("balance", ("balance", "swing_up"))
+    dynamics: CartChainDynamics = dynamics(CartChainDynamics)
+    integrator: Integrator = integrator("rk4")
+    forces: tuple = ()
+    force_mag: Scalar = parameter(20.0, POSITIVE)
+    theta_threshold_radians: Scalar = parameter(12 * 2 * math.pi / 360, POSITIVE_OR_INF)
+    x_threshold: Scalar = parameter(check=POSITIVE_OR_INF, default_from=_track_default)
+    action_cost: Scalar = parameter(1e-3, NONNEGATIVE)
+    dt: Scalar = time_step(0.02)
+    max_episode_steps: int | None = episode_limit(500)
 
     @property
     def action_space(self) -> Box:
@@ -119,20 +87,21 @@ class DoubleCartPole(AbstractEnv):
     def observation_space(self) -> Box:
         return Box(-jnp.inf, jnp.inf, (6,))
 
-    def initial(self, *, key: Key) -> EnvState:
-        y = uniform(key, (6,), self.dt.dtype, -0.05, 0.05)
+    @property
+    def initial_bounds(self) -> tuple[Array, Array]:
+        centre = jnp.zeros(6, self.dt.dtype)
         if self.task == "swing_up":
-            y = y.at[1:3].add(math.pi)
-        return EnvState(y=y, steps=jnp.zeros((), dtype=int))
+            centre = centre.at[1:3].set(math.pi)
+        return centre - 0.05, centre + 0.05
 
     def physical_input(self, action: Array) -> Input:
         return self.force_mag * jnp.clip(jnp.reshape(action, (1,)), -1.0, 1.0)
 
-    def observation(self, state: EnvState, *, key: Key) -> Array:
+    def observation(self, state: EnvState, *, key: Key | None) -> Array:
         del key
         return state.y
 
-    def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key) -> Scalar:
+    def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
         del state, key
         if self.task == "balance":
             return jnp.ones((), dtype=self.dt.dtype)
@@ -140,7 +109,19 @@ class DoubleCartPole(AbstractEnv):
         _, theta1, theta2 = next_state.y[:3]
         return (jnp.cos(theta1) + jnp.cos(theta2)) / 2 - self.action_cost * clipped**2
 
-    def terminal(self, state: EnvState, *, key: Key) -> BoolScalar:
+    @property
+    def worst_reward(self) -> Scalar:
+        if self.task == "balance":
+            return jnp.ones((), dtype=self.dt.dtype)
+        return -1.0 - self.action_cost
+
+    def __check_init__(self):
+        if self.dynamics.n_links != 2:
+            raise ValueError(
+                f"pole_masses and pole_lengths must have shape (2,), got {self.dynamics.pole_masses.shape}"
+            )
+
+    def terminal(self, state: EnvState, *, key: Key | None) -> BoolScalar:
         del key
         x, theta1, theta2 = state.y[:3]
         out = jnp.abs(x) > self.x_threshold

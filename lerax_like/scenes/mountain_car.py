@@ -1,58 +1,27 @@
-from typing import ClassVar
+from typing import ClassVar, final
 
-import diffrax
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
-from .._checks import _concrete, as_parameter, check_finite, check_positive, check_positive_or_inf
-from .._random import uniform
-from .._types import Array, BoolScalar, Input, Key, Scalar, ScalarLike, State
-from ..env import AbstractEnv, EnvState
-from ..integrate import Integrator, make_integrator
+from .._fields import FINITE, POSITIVE, POSITIVE_OR_INF, concrete, parameter
+from .._types import Array, BoolScalar, Input, Key, Scalar, State
+from ..env import AbstractEnv, EnvState, GymnasiumSpec, dynamics, episode_limit, integrator, time_step
+from ..integrate import Integrator
 from ..physics import MountainCarDynamics
 from ..spaces import Box, Discrete
 
 
-SolverLike = "str | diffrax.AbstractSolver | Integrator"
-
-
-def _check_road(min_position, max_position, goal_position) -> None:
-    for name, value in [
-        ("min_position", min_position), ("max_position", max_position), ("goal_position", goal_position),
-    ]:
-        check_finite(value, name)
-    low, high = _concrete(min_position), _concrete(max_position)
-    if low is not None and high is not None and not np.all(low < high):
-        raise ValueError(
-            f"min_position must be < max_position (allowed range (-inf, max_position)), "
-            f"got min_position={low}, max_position={high}"
-        )
-
-
-def _road_parts(
-    gravity, min_position, max_position, max_speed, goal_position, goal_velocity, dt, solver,
-    stepsize_controller,
-) -> tuple[MountainCarDynamics, Integrator, Scalar, Scalar, Scalar, Scalar, Scalar, Scalar]:
-    """What both mountain cars build from their shared keywords, checked."""
-    check_positive_or_inf(max_speed, "max_speed")
-    check_finite(goal_velocity, "goal_velocity")
-    check_positive(dt, "dt")
-    _check_road(min_position, max_position, goal_position)
-    return (
-        MountainCarDynamics(gravity=gravity),
-        make_integrator(solver, stepsize_controller),
-        as_parameter(dt, "dt"),
-        as_parameter(min_position, "min_position"),
-        as_parameter(max_position, "max_position"),
-        as_parameter(max_speed, "max_speed"),
-        as_parameter(goal_position, "goal_position"),
-        as_parameter(goal_velocity, "goal_velocity"),
-    )
+def _road_attributes(engine: str) -> tuple[tuple[str, str], ...]:
+    """Gymnasium's attribute names on its mountain cars: the same as the scenes' own."""
+    names = ("min_position", "max_position", "max_speed", "goal_position", "goal_velocity", engine)
+    return (("gravity", "dynamics.gravity"), *((name, name) for name in names))
 
 
 class AbstractMountainCar(AbstractEnv):
     """What the discrete and continuous mountain cars share: road, start, projection, goal."""
+
+    stochastic: ClassVar[bool] = False  # nothing random but the start
 
     dynamics: eqx.AbstractVar[MountainCarDynamics]
     min_position: eqx.AbstractVar[Scalar]
@@ -67,10 +36,10 @@ class AbstractMountainCar(AbstractEnv):
             jnp.stack([self.min_position, -self.max_speed]), jnp.stack([self.max_position, self.max_speed])
         )
 
-    def initial(self, *, key: Key) -> EnvState:
-        position = uniform(key, (), self.dt.dtype, -0.6, -0.4)
-        y = jnp.stack([position, jnp.zeros_like(position)])
-        return EnvState(y=y, steps=jnp.zeros((), dtype=int))
+    @property
+    def initial_bounds(self) -> tuple[Array, Array]:
+        # The velocity's bounds coincide: it starts at rest, and is not drawn.
+        return jnp.array([-0.6, 0.0], self.dt.dtype), jnp.array([-0.4, 0.0], self.dt.dtype)
 
     def project(self, y: State) -> State:
         # The speed limit, the ends of the road, and the left wall, which stops a car
@@ -81,29 +50,26 @@ class AbstractMountainCar(AbstractEnv):
         velocity = jnp.where((position == self.min_position) & (velocity < 0), 0.0, velocity)
         return jnp.stack([position, velocity])
 
-    def observation(self, state: EnvState, *, key: Key) -> Array:
+    def observation(self, state: EnvState, *, key: Key | None) -> Array:
         del key
         return state.y
 
-    def terminal(self, state: EnvState, *, key: Key) -> BoolScalar:
+    def terminal(self, state: EnvState, *, key: Key | None) -> BoolScalar:
         del key
         position, velocity = state.y
         return (position >= self.goal_position) & (velocity >= self.goal_velocity)
 
-
-_COMMON_DOC = """
-    ## Observation Space
-    `[position, velocity]`, within `[min_position, max_position] x [-max_speed, max_speed]`.
-
-    ## Starting State
-    Position uniform in `[-0.6, -0.4]`, velocity 0.
-
-    ## Episode End
-    Terminated when `position >= goal_position` and `velocity >= goal_velocity`, or when
-    the integration fails (`info["solver_ok"]`). Truncated after `max_episode_steps`.
-"""
+    def __check_init__(self):
+        low, high = concrete(self.min_position), concrete(self.max_position)
+        if low is not None and high is not None and not np.all(low < high):
+            raise ValueError(
+                f"min_position must be < max_position (allowed range (-inf, max_position)), "
+                f"got min_position={low}, max_position={high}"
+            )
 
 
+
+@final
 class MountainCar(AbstractMountainCar):
     """Drive an underpowered car up a hill by rocking it (Gymnasium's MountainCar-v0).
 
@@ -118,53 +84,44 @@ class MountainCar(AbstractMountainCar):
     ## Action Space
     `Discrete(3)`: accelerate left (`-force`), do nothing, accelerate right (`+force`).
 
+    ## Observation Space
+    `[position, velocity]`, within `[min_position, max_position] x [-max_speed, max_speed]`.
+
+    ## Starting State
+    Position uniform in `[-0.6, -0.4]`, velocity 0.
+
+    ## Episode End
+    Terminated when `position >= goal_position` and `velocity >= goal_velocity`, or when
+    the integration fails (`info["solver_ok"]`). Truncated after `max_episode_steps`.
+
     ## Rewards
     -1 for every step.
-    """ + _COMMON_DOC + """
 
-    stochastic: ClassVar[bool] = False  # nothing random but the start
     ## Arguments
-    `gravity` (0.0025), `force` (0.001), `min_position` (-1.2), `max_position` (0.6),
-    `max_speed` (0.07), `goal_position` (0.5), `goal_velocity` (0), `dt` (1), `solver`,
+    `dynamics` (a `MountainCarDynamics`) or `gravity` (0.0025) flat, `force` (0.001),
+    `min_position` (-1.2), `max_position` (0.6), `max_speed` (0.07), `goal_position`
+    (0.5), `goal_velocity` (0), `dt` (1), `integrator` or `solver` with
     `stepsize_controller`, `max_episode_steps` (200).
     """
 
-    dynamics: MountainCarDynamics
-    integrator: Integrator
-    dt: Scalar
-    force: Scalar
-    min_position: Scalar
-    max_position: Scalar
-    max_speed: Scalar
-    goal_position: Scalar
-    goal_velocity: Scalar
-    max_episode_steps: int | None = eqx.field(static=True)
+    gymnasium: ClassVar[GymnasiumSpec] = GymnasiumSpec(
+        name="MountainCar-v0",
+        max_episode_steps=200,
+        reward_threshold=-110.0,
+        renderer="gymnasium.envs.classic_control.mountain_car:MountainCarEnv",
+        attributes=_road_attributes("force"),
+    )
 
-    def __init__(
-        self,
-        *,
-        gravity: ScalarLike = 0.0025,
-        force: ScalarLike = 0.001,
-        min_position: ScalarLike = -1.2,
-        max_position: ScalarLike = 0.6,
-        max_speed: ScalarLike = 0.07,
-        goal_position: ScalarLike = 0.5,
-        goal_velocity: ScalarLike = 0.0,
-        dt: ScalarLike = 1.0,
-        solver: SolverLike = "semi_implicit_euler",
-        stepsize_controller: diffrax.AbstractStepSizeController | None = None,
-        max_episode_steps: int | None = 200,
-    ):
-        check_positive(force, "force")
-        (
-            self.dynamics, self.integrator, self.dt, self.min_position, self.max_position,
-            self.max_speed, self.goal_position, self.goal_velocity,
-        ) = _road_parts(
-            gravity, min_position, max_position, max_speed, goal_position, goal_velocity, dt,
-            solver, stepsize_controller,
-        )
-        self.force = as_parameter(force, "force")
-        self.max_episode_steps = max_episode_steps
+    dynamics: MountainCarDynamics = dynamics(MountainCarDynamics)
+    integrator: Integrator = integrator("semi_implicit_euler")
+    force: Scalar = parameter(0.001, POSITIVE)
+    min_position: Scalar = parameter(-1.2, FINITE)
+    max_position: Scalar = parameter(0.6, FINITE)
+    max_speed: Scalar = parameter(0.07, POSITIVE_OR_INF)
+    goal_position: Scalar = parameter(0.5, FINITE)
+    goal_velocity: Scalar = parameter(0.0, FINITE)
+    dt: Scalar = time_step(1.0)
+    max_episode_steps: int | None = episode_limit(200)
 
     @property
     def action_space(self) -> Discrete:
@@ -173,11 +130,16 @@ class MountainCar(AbstractMountainCar):
     def physical_input(self, action: Array) -> Input:
         return ((jnp.asarray(action).astype(self.force.dtype) - 1.0) * self.force)[None]
 
-    def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key) -> Scalar:
+    def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
         del state, action, next_state, key
         return -jnp.ones((), dtype=self.dt.dtype)
 
+    @property
+    def worst_reward(self) -> Scalar:
+        return -jnp.ones((), dtype=self.dt.dtype)
 
+
+@final
 class MountainCarContinuous(AbstractMountainCar):
     """Drive an underpowered car up a hill with a continuous throttle (MountainCarContinuous-v0).
 
@@ -188,54 +150,45 @@ class MountainCarContinuous(AbstractMountainCar):
     ## Action Space
     `Box(-1, 1, (1,))`: the throttle.
 
+    ## Observation Space
+    `[position, velocity]`, within `[min_position, max_position] x [-max_speed, max_speed]`.
+
+    ## Starting State
+    Position uniform in `[-0.6, -0.4]`, velocity 0.
+
+    ## Episode End
+    Terminated when `position >= goal_position` and `velocity >= goal_velocity`, or when
+    the integration fails (`info["solver_ok"]`). Truncated after `max_episode_steps`.
+
     ## Rewards
     `-0.1 * action**2` every step (on the action as given, before clipping, as Gymnasium
     does), plus 100 on the step that reaches the goal.
-    """ + _COMMON_DOC + """
 
-    stochastic: ClassVar[bool] = False  # nothing random but the start
     ## Arguments
-    `gravity` (0.0025), `power` (0.0015), `min_position` (-1.2), `max_position` (0.6),
-    `max_speed` (0.07), `goal_position` (0.45), `goal_velocity` (0), `dt` (1), `solver`,
+    `dynamics` (a `MountainCarDynamics`) or `gravity` (0.0025) flat, `power` (0.0015),
+    `min_position` (-1.2), `max_position` (0.6), `max_speed` (0.07), `goal_position`
+    (0.45), `goal_velocity` (0), `dt` (1), `integrator` or `solver` with
     `stepsize_controller`, `max_episode_steps` (999).
     """
 
-    dynamics: MountainCarDynamics
-    integrator: Integrator
-    dt: Scalar
-    power: Scalar
-    min_position: Scalar
-    max_position: Scalar
-    max_speed: Scalar
-    goal_position: Scalar
-    goal_velocity: Scalar
-    max_episode_steps: int | None = eqx.field(static=True)
+    gymnasium: ClassVar[GymnasiumSpec] = GymnasiumSpec(
+        name="MountainCarContinuous-v0",
+        max_episode_steps=999,
+        reward_threshold=90.0,
+        renderer="gymnasium.envs.classic_control.continuous_mountain_car:Continuous_MountainCarEnv",
+        attributes=_road_attributes("power"),
+    )
 
-    def __init__(
-        self,
-        *,
-        gravity: ScalarLike = 0.0025,
-        power: ScalarLike = 0.0015,
-        min_position: ScalarLike = -1.2,
-        max_position: ScalarLike = 0.6,
-        max_speed: ScalarLike = 0.07,
-        goal_position: ScalarLike = 0.45,
-        goal_velocity: ScalarLike = 0.0,
-        dt: ScalarLike = 1.0,
-        solver: SolverLike = "semi_implicit_euler",
-        stepsize_controller: diffrax.AbstractStepSizeController | None = None,
-        max_episode_steps: int | None = 999,
-    ):
-        check_positive(power, "power")
-        (
-            self.dynamics, self.integrator, self.dt, self.min_position, self.max_position,
-            self.max_speed, self.goal_position, self.goal_velocity,
-        ) = _road_parts(
-            gravity, min_position, max_position, max_speed, goal_position, goal_velocity, dt,
-            solver, stepsize_controller,
-        )
-        self.power = as_parameter(power, "power")
-        self.max_episode_steps = max_episode_steps
+    dynamics: MountainCarDynamics = dynamics(MountainCarDynamics)
+    integrator: Integrator = integrator("semi_implicit_euler")
+    power: Scalar = parameter(0.0015, POSITIVE)
+    min_position: Scalar = parameter(-1.2, FINITE)
+    max_position: Scalar = parameter(0.6, FINITE)
+    max_speed: Scalar = parameter(0.07, POSITIVE_OR_INF)
+    goal_position: Scalar = parameter(0.45, FINITE)
+    goal_velocity: Scalar = parameter(0.0, FINITE)
+    dt: Scalar = time_step(1.0)
+    max_episode_steps: int | None = episode_limit(999)
 
     @property
     def action_space(self) -> Box:
@@ -244,7 +197,12 @@ class MountainCarContinuous(AbstractMountainCar):
     def physical_input(self, action: Array) -> Input:
         return self.power * jnp.clip(jnp.reshape(action, (1,)), -1.0, 1.0)
 
-    def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key) -> Scalar:
+    def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
         del state
         goal = jnp.where(self.terminal(next_state, key=key), 100.0, 0.0).astype(self.dt.dtype)
         return goal - jnp.reshape(action, (1,))[0] ** 2 * 0.1
+
+    @property
+    def worst_reward(self) -> Scalar:
+        # The throttle cost at the ends of the action space.
+        return -0.1 * jnp.ones((), dtype=self.dt.dtype)

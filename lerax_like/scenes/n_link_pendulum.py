@@ -1,19 +1,17 @@
 import math
-from typing import ClassVar
+from typing import ClassVar, final
 
-import diffrax
-import equinox as eqx
 import jax.numpy as jnp
 
-from .._checks import as_parameter, check_nonnegative, check_positive
-from .._random import uniform
-from .._types import Array, BoolScalar, Input, Key, Scalar, ScalarLike
-from ..env import AbstractEnv, EnvState
-from ..integrate import Integrator, make_integrator
+from .._fields import NONNEGATIVE, parameter
+from .._types import Array, BoolScalar, Input, Key, Scalar
+from ..env import AbstractEnv, EnvState, dynamics, episode_limit, integrator, time_step
+from ..integrate import Integrator
 from ..physics.chain import NLinkPendulumDynamics
 from ..spaces import Box
 
 
+@final
 class NLinkPendulum(AbstractEnv):
     """A chain of n uniform rods hanging from a fixed pivot, with a motor at every joint.
 
@@ -44,43 +42,21 @@ class NLinkPendulum(AbstractEnv):
     `max_episode_steps` (500) steps.
 
     ## Arguments
-    `masses` (n,), `lengths` (n,) (full lengths), `gravity`, `max_torque` (>= 0),
-    `action_cost`, `dt`, `solver` (a preset name, a diffrax solver or an `Integrator`;
-    default "rk4"), `stepsize_controller`, `max_episode_steps`. The number of links n is
+    `dynamics` (an `NLinkPendulumDynamics`) or its parameters flat: `masses` (n,),
+    `lengths` (n,) (full lengths), `gravity`. `max_torque` (>= 0), `action_cost`, `dt`,
+    `integrator` or `solver` (a preset name or a diffrax solver; default "rk4") with
+    `stepsize_controller`, `max_episode_steps`. The number of links n is
     the length of `masses`.
     """
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
 
-    dynamics: NLinkPendulumDynamics
-    integrator: Integrator
-    dt: Scalar
-    max_torque: Scalar
-    action_cost: Scalar
-    max_episode_steps: int | None = eqx.field(static=True)
-
-    def __init__(
-        self,
-        *,
-        masses=(1.0, 1.0, 1.0),
-        lengths=(1.0, 1.0, 1.0),
-        gravity: ScalarLike = 9.81,
-        max_torque: ScalarLike = 0.0,
-        action_cost: ScalarLike = 1e-3,
-        dt: ScalarLike = 0.02,
-        solver: "str | diffrax.AbstractSolver | Integrator" = "rk4",
-        stepsize_controller: diffrax.AbstractStepSizeController | None = None,
-        max_episode_steps: int | None = 500,
-    ):
-        check_nonnegative(max_torque, "max_torque")
-        check_nonnegative(action_cost, "action_cost")
-        check_positive(dt, "dt")
-        self.dynamics = NLinkPendulumDynamics(masses=masses, lengths=lengths, gravity=gravity)
-        self.integrator = make_integrator(solver, stepsize_controller)
-        self.dt = as_parameter(dt, "dt")
-        self.max_torque = as_parameter(max_torque, "max_torque")
-        self.action_cost = as_parameter(action_cost, "action_cost")
-        self.max_episode_steps = max_episode_steps
+    dynamics: NLinkPendulumDynamics = dynamics(NLinkPendulumDynamics)
+    integrator: Integrator = integrator("rk4")
+    max_torque: Scalar = parameter(0.0, NONNEGATIVE)
+    action_cost: Scalar = parameter(1e-3, NONNEGATIVE)
+    dt: Scalar = time_step(0.02)
+    max_episode_steps: int | None = episode_limit(500)
 
     @property
     def n_links(self) -> int:
@@ -94,24 +70,28 @@ class NLinkPendulum(AbstractEnv):
     def observation_space(self) -> Box:
         return Box(-jnp.inf, jnp.inf, (2 * self.n_links,))
 
-    def initial(self, *, key: Key) -> EnvState:
+    @property
+    def initial_bounds(self) -> tuple[Array, Array]:
         # Angles uniform in [-pi, pi), rates in [-0.05, 0.05).
         high = jnp.repeat(jnp.array([math.pi, 0.05], dtype=self.dt.dtype), self.n_links)
-        y = uniform(key, (2 * self.n_links,), self.dt.dtype, -high, high)
-        return EnvState(y=y, steps=jnp.zeros((), dtype=int))
+        return -high, high
 
     def physical_input(self, action: Array) -> Input:
         return self.max_torque * jnp.clip(jnp.reshape(action, (self.n_links,)), -1.0, 1.0)
 
-    def observation(self, state: EnvState, *, key: Key) -> Array:
+    def observation(self, state: EnvState, *, key: Key | None) -> Array:
         del key
         return state.y
 
-    def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key) -> Scalar:
+    def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
         del state, key
         clipped = jnp.clip(jnp.reshape(action, (self.n_links,)), -1.0, 1.0)
         return jnp.mean(jnp.cos(next_state.y[: self.n_links])) - self.action_cost * jnp.sum(clipped**2)
 
-    def terminal(self, state: EnvState, *, key: Key) -> BoolScalar:
+    @property
+    def worst_reward(self) -> Scalar:
+        return -1.0 - self.action_cost * self.n_links
+
+    def terminal(self, state: EnvState, *, key: Key | None) -> BoolScalar:
         del state, key
         return jnp.asarray(False)

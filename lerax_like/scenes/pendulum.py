@@ -1,25 +1,20 @@
-from typing import ClassVar
+from typing import ClassVar, final
 
-import diffrax
-import equinox as eqx
 import jax.numpy as jnp
 
-from .._checks import as_parameter, check_positive, check_positive_or_inf
-from .._random import uniform
-from .._types import Array, BoolScalar, Input, Key, Scalar, ScalarLike, State
-from ..env import AbstractEnv, EnvState
-from ..integrate import Integrator, make_integrator
+from .._fields import POSITIVE, POSITIVE_OR_INF, parameter
+from .._types import Array, BoolScalar, Input, Key, Scalar, State
+from ..env import AbstractEnv, EnvState, GymnasiumSpec, dynamics, episode_limit, integrator, time_step
+from ..integrate import Integrator
 from ..physics import PendulumDynamics
 from ..spaces import Box
-
-
-SolverLike = "str | diffrax.AbstractSolver | Integrator"
 
 
 def _angle_normalize(theta: Scalar) -> Scalar:
     return ((theta + jnp.pi) % (2 * jnp.pi)) - jnp.pi
 
 
+@final
 class Pendulum(AbstractEnv):
     """Swing a pendulum up and hold it upright with a bounded torque (Gymnasium's Pendulum-v1).
 
@@ -48,42 +43,36 @@ class Pendulum(AbstractEnv):
     Truncated after `max_episode_steps` (200) steps.
 
     ## Arguments
-    `gravity` (10), `mass` (1), `length` (1), `max_speed` (8, may be `inf`),
-    `max_torque` (2), `dt` (0.05), `solver` (a preset name, a diffrax solver or an
-    `Integrator`), `stepsize_controller`, `max_episode_steps`.
+    `dynamics` (a `PendulumDynamics`) or its parameters flat: `gravity` (10; Gymnasium's
+    `g`), `mass` (1), `length` (1). `max_speed` (8, may be `inf`), `max_torque` (2),
+    `dt` (0.05), `integrator` or `solver` (a preset name or a diffrax solver) with
+    `stepsize_controller`, `max_episode_steps`.
     """
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
+    gymnasium: ClassVar[GymnasiumSpec] = GymnasiumSpec(
+        name="Pendulum-v1",
+        max_episode_steps=200,
+        reward_threshold=None,
+        renderer="gymnasium.envs.classic_control.pendulum:PendulumEnv",
+        attributes=(
+            ("g", "dynamics.gravity"),
+            ("m", "dynamics.mass"),
+            ("l", "dynamics.length"),
+            ("max_speed", "max_speed"),
+            ("max_torque", "max_torque"),
+            ("dt", "dt"),
+        ),
+        reset_options="pendulum",
+    )
+    aliases: ClassVar[tuple[tuple[str, str], ...]] = (("g", "gravity"),)
 
-    dynamics: PendulumDynamics
-    integrator: Integrator
-    dt: Scalar
-    max_speed: Scalar
-    max_torque: Scalar
-    max_episode_steps: int | None = eqx.field(static=True)
-
-    def __init__(
-        self,
-        *,
-        gravity: ScalarLike = 10.0,
-        mass: ScalarLike = 1.0,
-        length: ScalarLike = 1.0,
-        max_speed: ScalarLike = 8.0,
-        max_torque: ScalarLike = 2.0,
-        dt: ScalarLike = 0.05,
-        solver: SolverLike = "semi_implicit_euler",
-        stepsize_controller: diffrax.AbstractStepSizeController | None = None,
-        max_episode_steps: int | None = 200,
-    ):
-        check_positive_or_inf(max_speed, "max_speed")
-        check_positive(max_torque, "max_torque")
-        check_positive(dt, "dt")
-        self.dynamics = PendulumDynamics(gravity=gravity, mass=mass, length=length)
-        self.integrator = make_integrator(solver, stepsize_controller)
-        self.dt = as_parameter(dt, "dt")
-        self.max_speed = as_parameter(max_speed, "max_speed")
-        self.max_torque = as_parameter(max_torque, "max_torque")
-        self.max_episode_steps = max_episode_steps
+    dynamics: PendulumDynamics = dynamics(PendulumDynamics)
+    integrator: Integrator = integrator("semi_implicit_euler")
+    max_speed: Scalar = parameter(8.0, POSITIVE_OR_INF)
+    max_torque: Scalar = parameter(2.0, POSITIVE)
+    dt: Scalar = time_step(0.05)
+    max_episode_steps: int | None = episode_limit(200)
 
     @property
     def action_space(self) -> Box:
@@ -94,10 +83,10 @@ class Pendulum(AbstractEnv):
         high = jnp.stack([jnp.ones_like(self.max_speed), jnp.ones_like(self.max_speed), self.max_speed])
         return Box(-high, high)
 
-    def initial(self, *, key: Key) -> EnvState:
+    @property
+    def initial_bounds(self) -> tuple[Array, Array]:
         high = jnp.array([jnp.pi, 1.0], dtype=self.dt.dtype)
-        y = uniform(key, (2,), self.dt.dtype, -high, high)
-        return EnvState(y=y, steps=jnp.zeros((), dtype=int))
+        return -high, high
 
     def physical_input(self, action: Array) -> Input:
         return jnp.clip(jnp.reshape(action, (1,)), -self.max_torque, self.max_torque)
@@ -105,17 +94,22 @@ class Pendulum(AbstractEnv):
     def project(self, y: State) -> State:
         return y.at[1].set(jnp.clip(y[1], -self.max_speed, self.max_speed))
 
-    def observation(self, state: EnvState, *, key: Key) -> Array:
+    def observation(self, state: EnvState, *, key: Key | None) -> Array:
         del key
         theta, theta_dot = state.y
         return jnp.stack([jnp.cos(theta), jnp.sin(theta), theta_dot])
 
-    def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key) -> Scalar:
+    def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
         del next_state, key
         theta, theta_dot = state.y
         torque = self.physical_input(action)[0]
         return -(_angle_normalize(theta) ** 2 + 0.1 * theta_dot**2 + 0.001 * torque**2)
 
-    def terminal(self, state: EnvState, *, key: Key) -> BoolScalar:
+    @property
+    def worst_reward(self) -> Scalar:
+        # The cost is largest hanging down at full speed and full torque: -16.27 by default.
+        return -(jnp.pi**2 + 0.1 * self.max_speed**2 + 0.001 * self.max_torque**2)
+
+    def terminal(self, state: EnvState, *, key: Key | None) -> BoolScalar:
         del state, key
         return jnp.asarray(False)

@@ -1,18 +1,19 @@
-from typing import ClassVar
+from typing import ClassVar, final
 
-import diffrax
-import equinox as eqx
 import jax.numpy as jnp
 
-from .._checks import as_parameter, check_nonnegative, check_positive
-from .._random import uniform
-from .._types import Array, BoolScalar, Input, Key, Scalar, ScalarLike
-from ..env import AbstractEnv, EnvState
-from ..integrate import Integrator, make_integrator
+from .._fields import NONNEGATIVE, POSITIVE, parameter
+from .._types import Array, BoolScalar, Input, Key, Scalar
+from ..env import AbstractEnv, EnvState, dynamics, episode_limit, integrator, time_step
+from ..integrate import Integrator
 from ..physics import VanDerPolDynamics
 from ..spaces import Box
 
 
+_ERROR_CAP = 100.0
+
+
+@final
 class VanDerPol(AbstractEnv):
     """Hold a forced Van der Pol oscillator at a target amplitude; stiff for large `mu`.
 
@@ -32,8 +33,11 @@ class VanDerPol(AbstractEnv):
     velocity reaches about `mu` during the fast jumps of the relaxation oscillation.
 
     ## Rewards
-    `-(r - target_amplitude)^2 - action_cost * action^2` with `r = sqrt(x^2 + v^2)` the
-    distance from the origin in the phase plane, evaluated after the step.
+    `-min(|r - target_amplitude|, 100)^2 - action_cost * action^2` with
+    `r = sqrt(x^2 + v^2)` the distance from the origin in the phase plane, evaluated after
+    the step. The amplitude error saturates at 100 (far beyond any state a controlled run
+    reaches), so that the rewards are bounded below by `-(1e4 + action_cost)`, which a
+    failed step pays.
 
     ## Starting State
     `x` and `v` uniform in `(-0.5, 0.5)`: near the unstable equilibrium at the origin.
@@ -43,45 +47,23 @@ class VanDerPol(AbstractEnv):
     False, terminated) or is truncated after `max_episode_steps` (200) steps.
 
     ## Arguments
-    `mu` (>= 0), `force_mag` (> 0), `target_amplitude` (> 0), `action_cost` (>= 0),
-    `dt` (> 0), `solver` (a preset name, a diffrax solver or an `Integrator`; default
-    `"tsit5"`, use `"kvaerno5"` from `mu` of about 100), `stepsize_controller`,
-    `max_episode_steps`.
+    `dynamics` (a `VanDerPolDynamics`) or `mu` (>= 0) flat, `force_mag` (> 0),
+    `target_amplitude` (> 0), `action_cost` (>= 0), `dt` (> 0), `integrator` or `solver`
+    (a preset name or a diffrax solver; default `"tsit5"`, use `"kvaerno5"` from `mu` of
+    about 100) with `stepsize_controller`, `max_episode_steps`.
     """
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
+    # Stiff from mu of about 100: the studies take their reference from SciPy's Radau.
+    stiff: ClassVar[bool] = True
 
-    dynamics: VanDerPolDynamics
-    integrator: Integrator
-    dt: Scalar
-    force_mag: Scalar
-    target_amplitude: Scalar
-    action_cost: Scalar
-    max_episode_steps: int | None = eqx.field(static=True)
-
-    def __init__(
-        self,
-        *,
-        mu: ScalarLike = 1.0,
-        force_mag: ScalarLike = 1.0,
-        target_amplitude: ScalarLike = 1.0,
-        action_cost: ScalarLike = 1e-2,
-        dt: ScalarLike = 0.05,
-        solver: "str | diffrax.AbstractSolver | Integrator" = "tsit5",
-        stepsize_controller: diffrax.AbstractStepSizeController | None = None,
-        max_episode_steps: int | None = 200,
-    ):
-        check_positive(force_mag, "force_mag")
-        check_positive(target_amplitude, "target_amplitude")
-        check_nonnegative(action_cost, "action_cost")
-        check_positive(dt, "dt")
-        self.dynamics = VanDerPolDynamics(mu=mu)
-        self.integrator = make_integrator(solver, stepsize_controller)
-        self.dt = as_parameter(dt, "dt")
-        self.force_mag = as_parameter(force_mag, "force_mag")
-        self.target_amplitude = as_parameter(target_amplitude, "target_amplitude")
-        self.action_cost = as_parameter(action_cost, "action_cost")
-        self.max_episode_steps = max_episode_steps
+    dynamics: VanDerPolDynamics = dynamics(VanDerPolDynamics)
+    integrator: Integrator = integrator("tsit5")
+    force_mag: Scalar = parameter(1.0, POSITIVE)
+    target_amplitude: Scalar = parameter(1.0, POSITIVE)
+    action_cost: Scalar = parameter(1e-2, NONNEGATIVE)
+    dt: Scalar = time_step(0.05)
+    max_episode_steps: int | None = episode_limit(200)
 
     @property
     def action_space(self) -> Box:
@@ -91,24 +73,29 @@ class VanDerPol(AbstractEnv):
     def observation_space(self) -> Box:
         return Box(-jnp.inf, jnp.inf, (2,))
 
-    def initial(self, *, key: Key) -> EnvState:
-        y = uniform(key, (2,), self.dt.dtype, -0.5, 0.5)
-        return EnvState(y=y, steps=jnp.zeros((), dtype=int))
+    @property
+    def initial_bounds(self) -> tuple[Array, Array]:
+        return jnp.full(2, -0.5, self.dt.dtype), jnp.full(2, 0.5, self.dt.dtype)
 
     def physical_input(self, action: Array) -> Input:
         return self.force_mag * jnp.clip(jnp.reshape(action, (1,)), -1.0, 1.0)
 
-    def observation(self, state: EnvState, *, key: Key) -> Array:
+    def observation(self, state: EnvState, *, key: Key | None) -> Array:
         del key
         return state.y
 
-    def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key) -> Scalar:
+    def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
         del state, key
         x, v = next_state.y
         radius = jnp.sqrt(x**2 + v**2)
         effort = jnp.sum(jnp.clip(jnp.reshape(action, (1,)), -1.0, 1.0) ** 2)
-        return -((radius - self.target_amplitude) ** 2) - self.action_cost * effort
+        error = jnp.minimum(jnp.abs(radius - self.target_amplitude), _ERROR_CAP)
+        return -(error**2) - self.action_cost * effort
 
-    def terminal(self, state: EnvState, *, key: Key) -> BoolScalar:
+    @property
+    def worst_reward(self) -> Scalar:
+        return -(_ERROR_CAP**2) - self.action_cost
+
+    def terminal(self, state: EnvState, *, key: Key | None) -> BoolScalar:
         del state, key
         return jnp.asarray(False)
