@@ -8,6 +8,8 @@ import sys
 
 import pytest
 
+import lerax_like
+
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 MISSING = [
     name for name in ("mkdocs", "mkdocstrings_handlers.python", "mkdocs_jupyter", "material")
@@ -27,8 +29,14 @@ def test_documentation_builds_strictly(tmp_path):
     assert completed.returncode == 0, completed.stderr[-4000:]
     site = tmp_path / "site"
     envs = (site / "api" / "envs" / "index.html").read_text()
-    for name in ("CartPole", "AbstractEnv", "rollout"):
+    for name in ("AbstractEnv", "rollout"):
         assert f'id="lerax_like.{name}"' in envs, f"{name} missing from the API reference"
+    # Every registered scene, and its physics, has its reference.
+    physics = (site / "api" / "physics" / "index.html").read_text()
+    for name, scene in lerax_like.SCENES.items():
+        assert f'id="{scene.__module__}.{name}"' in envs, f"scene {name} missing from the API reference"
+        dynamics = type(scene().dynamics)
+        assert f'id="{dynamics.__module__}.{dynamics.__name__}"' in physics, f"{dynamics.__name__} missing"
     for notebook in sorted((ROOT / "notebooks").glob("*.ipynb")):
         assert (site / "notebooks" / notebook.stem / "index.html").exists(), f"{notebook.name} not rendered"
 
