@@ -1,11 +1,12 @@
 """Steps per second of the vector env against Gymnasium's own vector CartPole, in one run.
 
-    python benchmarks/gym_vector.py [--num-envs 1024 16384] [--steps 100] [--repeats 15]
+    python -m benchmarks gym_vector [--quick]
+    python -m benchmarks.gym_vector [--num-envs 1024 16384] [--steps 100] [--repeats 15] [--out DIR]
 
 Both envs step the same pre-drawn random actions (episodes end every ~20 steps, so the
 restart path is timed too). Each env is compiled/warmed first; the repeats alternate
 between the two envs, so that load on the machine hits both alike; the median is kept.
-Writes benchmarks/results/gym_vector.csv, one row per number of envs (1024 is the one the
+Writes gym_vector.csv into benchmarks/results/ (results/quick/ with --quick), one row per number of envs (1024 is the one the
 issue asks for; a larger one shows where the fixed cost per call stops mattering).
 """
 
@@ -15,7 +16,6 @@ import datetime
 import os
 import platform
 import statistics
-import sys
 import time
 from pathlib import Path
 
@@ -23,9 +23,8 @@ import gymnasium
 import jax
 import numpy as np
 
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-import lerax_like  # noqa: E402  (registers the lerax_like/ ids)
+import lerax_like  # noqa: F401  (registers the lerax_like/ ids)
+from benchmarks import results_dir
 
 
 def make(env_id: str, num_envs: int):
@@ -75,17 +74,22 @@ def measure(num_envs: int, steps: int, repeats: int) -> dict:
     }
 
 
-def main() -> None:
+def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--num-envs", type=int, nargs="+", default=[1024, 16384])
-    parser.add_argument("--steps", type=int, default=100)
-    parser.add_argument("--repeats", type=int, default=15)
-    parser.add_argument("--output", default=str(Path(__file__).parent / "results" / "gym_vector.csv"))
-    args = parser.parse_args()
+    parser.add_argument("--quick", action="store_true", help="N = 64, 20 steps, 3 repeats")
+    parser.add_argument("--num-envs", type=int, nargs="+", default=None)
+    parser.add_argument("--steps", type=int, default=None)
+    parser.add_argument("--repeats", type=int, default=None)
+    parser.add_argument("--out", type=Path, default=None, help="default: benchmarks/results[/quick]")
+    args = parser.parse_args(argv)
+    num_envs = args.num_envs or ([64] if args.quick else [1024, 16384])
+    steps = args.steps or (20 if args.quick else 100)
+    repeats = args.repeats or (3 if args.quick else 15)
 
-    rows = [measure(num_envs, args.steps, args.repeats) for num_envs in args.num_envs]
-    output = Path(args.output)
-    output.parent.mkdir(parents=True, exist_ok=True)
+    rows = [measure(n, steps, repeats) for n in num_envs]
+    out = args.out or results_dir(args.quick)
+    out.mkdir(parents=True, exist_ok=True)
+    output = out / "gym_vector.csv"
     with output.open("w", newline="") as file:
         writer = csv.DictWriter(file, fieldnames=list(rows[0]))
         writer.writeheader()
