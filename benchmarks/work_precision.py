@@ -16,7 +16,7 @@ import sys
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir))
 
-from lerax_like.analysis import SCENES, STIFF_SCENES, StudyConfig, run_study  # noqa: E402
+from lerax_like.analysis import SCENES, StudyConfig, run_study  # noqa: E402
 from lerax_like.analysis.report import (  # noqa: E402
     cheapest_at, format_orders, format_table, plot_work_precision, write_csv, write_json,
 )
@@ -35,7 +35,7 @@ def main(argv=None) -> int:
         date = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
         machine = environment_record()
         config = StudyConfig.default(
-            scene, repeats=arguments.repeats, check_method="DOP853" if scene in STIFF_SCENES else "Radau"
+            scene, repeats=arguments.repeats, check_method="DOP853" if SCENES[scene].stiff else "Radau"
         )
         started = datetime.datetime.now()
         result = run_study(config, progress=not arguments.no_progress)

@@ -125,9 +125,10 @@ class AbstractEnv(eqx.Module):
     - `stochastic`: whether `transition`, `observation`, `reward` or `terminal` draw random
       numbers (`initial` always does). A deterministic scene's parts get `key=None` (one
       that draws anyway fails at once), and its whole key goes to the start draw.
-    - `stiff`: whether its dynamics are stiff at the defaults, so that the studies' SciPy
-      reference uses Radau instead of DOP853.
-    - `gymnasium`: its `GymnasiumSpec`, or None when it stands for no Gymnasium env.
+    - `stiff`: whether its dynamics are stiff, so that the studies' SciPy reference uses
+      Radau instead of DOP853 (False unless declared).
+    - `gymnasium`: its `GymnasiumSpec`, or None (the default) when it stands for no
+      Gymnasium env.
     - `aliases`: other names its keywords go by (`("reward", "reward_kind")`; Gymnasium's
       names, such as Pendulum's `g`).
     - `addons`: the generalised-force add-ons it accepts (`JointDamping`, `EndStops`);
@@ -139,8 +140,8 @@ class AbstractEnv(eqx.Module):
     """
 
     stochastic: eqx.AbstractClassVar[bool]
-    stiff: eqx.AbstractClassVar[bool]
-    gymnasium: eqx.AbstractClassVar[GymnasiumSpec | None]
+    stiff: ClassVar[bool] = False
+    gymnasium: ClassVar[GymnasiumSpec | None] = None
     addons: ClassVar[tuple[type, ...]] = ()
     aliases: ClassVar[tuple[tuple[str, str], ...]] = ()
 
@@ -149,11 +150,18 @@ class AbstractEnv(eqx.Module):
     dt: eqx.AbstractVar[Scalar]
     max_episode_steps: eqx.AbstractVar[int | None]
 
-    def __init__(self, **keywords):
-        """Every field by keyword; besides, the dynamics' parameters and the integrator's
-        settings (`solver`, `stepsize_controller`, `max_steps`, `adjoint`, `substeps`), and
-        the add-ons' parameters (`joint_damping`, ...) flat."""
+    def __init__(self, *fields, **keywords):
+        """Every field by keyword (or by position, in declaration order); besides, the
+        dynamics' parameters and the integrator's settings (`solver`, `stepsize_controller`,
+        `max_steps`, `adjoint`, `substeps`), and the add-ons' parameters (`joint_damping`,
+        ...) flat."""
         cls = type(self)
+        for field, value in zip(dataclasses.fields(cls), fields, strict=False):
+            if field.name in keywords:
+                raise TypeError(f"{cls.__name__} got {field.name} both by position and by keyword")
+            keywords[field.name] = value
+        if len(fields) > len(dataclasses.fields(cls)):
+            raise TypeError(f"{cls.__name__} takes at most {len(dataclasses.fields(cls))} positional fields")
         for alias, name in cls.aliases:
             if alias in keywords:
                 keywords[name] = keywords.pop(alias)
@@ -353,9 +361,7 @@ class AbstractEnv(eqx.Module):
         reward_ok = jnp.isfinite(reward)
         ok = info["solver_ok"] & observation_ok & reward_ok
         applied = ok & action_ok
-        next_state = jax.tree.map(
-            lambda new, old: jnp.where(applied, new, old), next_state, EnvState(state.y, next_state.steps)
-        )
+        next_state = EnvState(y=jnp.where(applied, next_state.y, state.y), steps=next_state.steps)
         observation = jnp.where(applied, observation, observe(state))
         reward = jnp.where(applied, reward, jnp.asarray(self.worst_reward, reward.dtype))
         terminated = self.terminal(next_state, key=keys.terminal) | ~applied

@@ -6,14 +6,12 @@ episode; nothing non-finite is returned; the autoreset starts a fresh episode; a
 under jit and vmap.
 """
 
-from typing import ClassVar
-
 import diffrax
-import pytest
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 from hypothesis import given, settings, strategies as st
 
 import lerax_like as ll
@@ -114,9 +112,7 @@ class _Decay(ll.AbstractDynamics):
 class _ExponentialReward(ll.AbstractEnv):
     """A test scene whose finite states can overflow in the reward: exp(x)."""
 
-    stochastic: ClassVar[bool] = False
-    stiff: ClassVar[bool] = False
-    gymnasium: ClassVar[None] = None
+    stochastic = False
 
     dynamics: _Decay
     integrator: ll.Integrator
@@ -135,10 +131,6 @@ class _ExponentialReward(ll.AbstractEnv):
     def initial_bounds(self):
         return jnp.zeros(1), jnp.zeros(1)
 
-    @property
-    def worst_reward(self):
-        return jnp.asarray(0.0)  # exp(x) > 0
-
     def physical_input(self, action):
         return action
 
@@ -148,17 +140,21 @@ class _ExponentialReward(ll.AbstractEnv):
     def reward(self, state, action, next_state, *, key):
         return jnp.exp(next_state.y[0])
 
+    @property
+    def worst_reward(self):
+        return jnp.zeros(())
+
     def terminal(self, state, *, key):
         return jnp.asarray(False)
 
 
 def test_overflowing_reward_is_flagged_and_replaced():
     # A finite state (x = 1e3) whose reward overflows: the last line of defence.
-    env = _ExponentialReward(dynamics=_Decay(), integrator=ll.make_integrator("euler"), dt=jnp.asarray(1e-3))
+    env = _ExponentialReward(_Decay(), ll.make_integrator("euler"), jnp.asarray(1e-3))
     record = _run_jit(env, jnp.array([1e3]), jnp.zeros((2, 1)), jax.random.key(0))
     assert not bool(record["solver_ok"][0]) and bool(record["raw_finite"][0])
     assert bool(record["terminated"][0])
-    assert float(record["reward"][0]) == 0.0
+    assert float(record["reward"][0]) == float(env.worst_reward) == 0.0
     assert np.all(np.isfinite(np.asarray(record["final_observation"])))
     # The autoreset put the env at x = 0, where the reward is 1 again.
     assert bool(record["solver_ok"][1]) and float(record["reward"][1]) == 1.0

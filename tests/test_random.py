@@ -45,6 +45,8 @@ class _Drift(ll.AbstractDynamics):
 class _NoisyObservation(ll.AbstractEnv):
     """Sees its state through noise drawn with the observation's key."""
 
+    stochastic = True
+
     dynamics: _Drift
     integrator: ll.Integrator
     dt: jax.Array
@@ -58,6 +60,10 @@ class _NoisyObservation(ll.AbstractEnv):
     def observation_space(self):
         return ll.Box(-jnp.inf, jnp.inf, (1,))
 
+    @property
+    def initial_bounds(self):
+        raise NotImplementedError("the start is Gaussian: see initial")
+
     def initial(self, *, key):
         return ll.EnvState(y=jr.normal(key, (1,)), steps=jnp.zeros((), dtype=int))
 
@@ -68,6 +74,10 @@ class _NoisyObservation(ll.AbstractEnv):
         return state.y + jr.normal(key, (1,))
 
     def reward(self, state, action, next_state, *, key):
+        return jnp.zeros(())
+
+    @property
+    def worst_reward(self):
         return jnp.zeros(())
 
     def terminal(self, state, *, key):

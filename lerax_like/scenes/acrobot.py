@@ -1,5 +1,5 @@
 import math
-from typing import ClassVar
+from typing import ClassVar, final
 
 import jax.numpy as jnp
 
@@ -24,6 +24,7 @@ def _wrap(x: Scalar, low: float, high: float) -> Scalar:
     return jnp.where(x < low, x + below * period, x)
 
 
+@final
 class Acrobot(AbstractEnv):
     """Swing the tip of a two-link arm, actuated at the elbow only, above a line (Acrobot-v1).
 
@@ -61,7 +62,6 @@ class Acrobot(AbstractEnv):
     """
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
-    stiff: ClassVar[bool] = False
     gymnasium: ClassVar[GymnasiumSpec] = GymnasiumSpec(
         name="Acrobot-v1",
         max_episode_steps=500,

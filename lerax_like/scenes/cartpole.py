@@ -1,5 +1,5 @@
 import math
-from typing import ClassVar, Literal
+from typing import ClassVar, Literal, final
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -20,7 +20,6 @@ class AbstractCartPole(AbstractEnv):
     """What the discrete and continuous cart-poles share: physics, add-ons, start, observation, end."""
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
-    stiff: ClassVar[bool] = False
     addons: ClassVar[tuple[type, ...]] = (JointDamping, EndStops)
 
     dynamics: eqx.AbstractVar[CartPoleDynamics]
@@ -64,6 +63,7 @@ _CARTPOLE_ATTRIBUTES = (
 )
 
 
+@final
 class CartPole(AbstractCartPole):
     """Balance a pole on a cart by pushing the cart left or right (Gymnasium's CartPole-v1).
 
@@ -142,6 +142,7 @@ class CartPole(AbstractCartPole):
         return jnp.ones((), dtype=self.dt.dtype)
 
 
+@final
 class CartPoleContinuous(AbstractCartPole):
     """CartPole with a continuous force: action `a` in `[-1, 1]` pushes with `a * force_mag` newtons.
 
@@ -170,7 +171,6 @@ class CartPoleContinuous(AbstractCartPole):
     Those of `CartPole` (the add-ons included), plus `reward` and `action_cost` (>= 0).
     """
 
-    gymnasium: ClassVar[None] = None
     # `reward` is the keyword users know; the field is `reward_kind`, as `reward` is the method.
     aliases: ClassVar[tuple[tuple[str, str], ...]] = (("reward", "reward_kind"),)
 
