@@ -148,5 +148,8 @@ class FloorVectorEnv:
             self._y, observation, reward, terminated = self._step(self._y, actions)
         return np.asarray(observation), np.asarray(reward), np.asarray(terminated)
 
+    def close(self) -> None:
+        pass
+
 
 __all__ = ["FloorVectorEnv", "STEPS"]

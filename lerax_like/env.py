@@ -277,7 +277,7 @@ class AbstractEnv(eqx.Module):
         return state, self.observation(state, key=keys.observation), {}
 
     def advance(
-        self, state: EnvState, action: Array, *, key: Key | None, observation_dtype=None
+        self, state: EnvState, action: Array, *, key: Key | None, observation_dtype=None, observation_before=None
     ) -> tuple[EnvState, Array, Scalar, BoolScalar, dict[str, Array]]:
         """One step without time limit or reset: the step semantics, defined once.
 
@@ -298,6 +298,10 @@ class AbstractEnv(eqx.Module):
         is no true next state; in the MDP the env actually computes (solver included) a
         state that overflows is absorbing. `info["solver_ok"]` tells this end apart from
         the task's own.
+
+        `observation_before`, if given, is the observation of `state` (cast to
+        `observation_dtype`) that a failed step returns; a caller that has it, as the
+        Gymnasium layer has its previous result, spares the step observing `state` again.
         """
         keys = step_keys(key, self.stochastic)
 
@@ -312,7 +316,7 @@ class AbstractEnv(eqx.Module):
         reward_ok = jnp.isfinite(reward)
         ok = info["solver_ok"] & observation_ok & reward_ok
         next_state = jax.tree.map(lambda new, old: jnp.where(ok, new, old), next_state, EnvState(state.y, next_state.steps))
-        observation = jnp.where(ok, observation, observe(state))
+        observation = jnp.where(ok, observation, observe(state) if observation_before is None else observation_before)
         reward = jnp.where(ok, reward, jnp.asarray(self.worst_reward, reward.dtype))
         terminated = self.terminal(next_state, key=keys.terminal) | ~ok
         return next_state, observation, reward, terminated, {**info, "solver_ok": ok}

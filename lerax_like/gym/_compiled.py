@@ -111,6 +111,7 @@ class HoldsScene:
     @scene.setter
     def scene(self, scene: AbstractEnv) -> None:
         self._split = SplitScene(scene, self._dtype)
+        self._observation = None  # a vector env's last observation, stale under a new scene
         with float64():
             self._initial_bounds = tuple(np.array(bound, dtype=np.float64) for bound in scene.initial_bounds)
         # The key of a stochastic scene's random parts starts again from seed 0 (as at
@@ -154,12 +155,14 @@ def _functions(treedef, static, layout):
         key, call_key = jr.split(key)
         return key, (call_key if num_envs is None else jr.split(call_key, num_envs))
 
-    def advance(scene, y, steps, action, key):
+    def advance(scene, y, steps, action, key, observation_before=None):
         # The functional env's step semantics (`AbstractEnv.advance`), with the float32
         # observation Gymnasium returns checked for finiteness after the cast: a finite
-        # float64 state can still overflow float32.
+        # float64 state can still overflow float32. The vector steps pass the observation
+        # of `y` they returned last, so that `advance` does not compute it again.
         state, observation, reward, terminated, info = scene.advance(
-            EnvState(y=y, steps=steps), action, key=key, observation_dtype=jnp.float32
+            EnvState(y=y, steps=steps), action, key=key, observation_dtype=jnp.float32,
+            observation_before=observation_before,
         )
         return state.y, observation, reward, terminated, info
 
@@ -175,12 +178,12 @@ def _functions(treedef, static, layout):
     def parameters_dtype(scene):
         return jnp.asarray(scene.dt).dtype
 
-    def vector_advance_all(scene, y, steps, action, key, max_episode_steps):
-        """`advance` of every env, the time limit, and the outcome rows for the host."""
+    def vector_advance_all(scene, y, steps, action, key, max_episode_steps, observation):
+        """`advance` of every env (`observation`: the observation of `y`), and the time limit."""
         key, keys = next_key(key, num_envs=y.shape[0])
         action = vector_actions(scene, action)
-        next_y, observation, reward, terminated, info = jax.vmap(advance, in_axes=(None, 0, 0, 0, 0))(
-            scene, y, steps, action, keys
+        next_y, observation, reward, terminated, info = jax.vmap(advance, in_axes=(None, 0, 0, 0, 0, 0))(
+            scene, y, steps, action, keys, observation
         )
         steps = steps + 1
         truncated = steps >= max_episode_steps
@@ -217,20 +220,22 @@ def _functions(treedef, static, layout):
         return observe_one(scene, y, steps, observation_key), key
 
     @jax.jit
-    def vector_advance(parameters, y, steps, action, key, max_episode_steps):
+    def vector_advance(parameters, y, steps, action, key, max_episode_steps, observation):
         """All envs step (`advance`), none restarts: `(y, steps, observation, outcome, key)`.
 
+        `observation` is the observation of `y` (the last one returned), which a failed
+        step returns again.
         The outcome rows are the reward, terminated, truncated (`steps >= max_episode_steps`),
         `solver_ok` and `solver_steps`.
         """
         scene = scene_of(parameters)
         key, next_y, steps, observation, reward, terminated, truncated, info = vector_advance_all(
-            scene, y, steps, action, key, max_episode_steps
+            scene, y, steps, action, key, max_episode_steps, observation
         )
         return next_y, steps, observation, outcome_rows(reward, terminated, truncated, info), key
 
     @jax.jit
-    def vector_step(parameters, y, steps, action, key, reset_mask, reset_y, max_episode_steps):
+    def vector_step(parameters, y, steps, action, key, reset_mask, reset_y, max_episode_steps, observation):
         """All envs step; then those whose episode ended at the previous step restart.
 
         Gymnasium's next-step autoreset: a restarted env (`reset_mask`) continues from
@@ -240,7 +245,7 @@ def _functions(treedef, static, layout):
         """
         scene = scene_of(parameters)
         key, next_y, steps, observation, reward, terminated, truncated, info = vector_advance_all(
-            scene, y, steps, action, key, max_episode_steps
+            scene, y, steps, action, key, max_episode_steps, observation
         )
         # Restarted envs continue from `reset_y` with their fresh observation.
         next_y = jnp.where(reset_mask[:, None], reset_y, next_y)
@@ -258,18 +263,18 @@ def _functions(treedef, static, layout):
         return next_y, steps, observation, outcome_rows(reward, terminated, truncated, info), key
 
     @jax.jit
-    def vector_restart(parameters, y, steps, key, reset_mask, reset_y):
-        """Restart the envs of `reset_mask` from `reset_y`: `(y, steps, their fresh observation, key)`.
+    def vector_restart(parameters, y, steps, key, reset_mask, reset_y, observation):
+        """Restart the envs of `reset_mask` from `reset_y`: `(y, steps, observation, key)`,
+        the observation being the fresh one for those envs and `observation` for the others.
 
-        What SB3's same-step autoreset needs after `vector_advance`: the observation rows
-        of the other envs are to be ignored.
+        What SB3's same-step autoreset needs after `vector_advance`.
         """
         scene = scene_of(parameters)
         y = jnp.where(reset_mask[:, None], reset_y, y)
         steps = jnp.where(reset_mask, 0, steps)
         key, keys = next_key(key, num_envs=y.shape[0])
         fresh = jax.vmap(observe_one, in_axes=(None, 0, 0, 0))(scene, reset_y, steps, keys)
-        return y, steps, fresh, key
+        return y, steps, jnp.where(reset_mask[:, None], fresh, observation), key
 
     @jax.jit
     def vector_observe(parameters, y, steps, key):

@@ -75,6 +75,8 @@ class GymnasiumVectorEnv(HoldsScene, VectorEnv):
         self._prev_done = np.zeros(num_envs, dtype=np.bool_)
         self._last_action: np.ndarray | None = None
         self._info_mask = np.ones(num_envs, dtype=np.bool_)
+        self._reset_y: np.ndarray | None = None
+        self._observation: jax.Array | None = None  # the last one returned, on the device
         self._warm_up()
 
     @property
@@ -94,10 +96,12 @@ class GymnasiumVectorEnv(HoldsScene, VectorEnv):
             self._y = jnp.asarray(value.T)
             if self._steps is None:
                 self._steps = jnp.zeros(self.num_envs, dtype=int)
+        self._observation = None  # of the old state: the next step observes the new one
 
     def _warm_up(self) -> None:
         # Compile the step and the observation now, not in the first step of training.
         y = self._starts(np.random.default_rng(0), None, self.num_envs)
+        self._reset_y = np.zeros_like(y)
         with self._split.precision():
             self._no_reset = jnp.zeros(self.num_envs, dtype=bool)
             no_limit = np.iinfo(jnp.zeros((), dtype=int).dtype).max
@@ -105,10 +109,11 @@ class GymnasiumVectorEnv(HoldsScene, VectorEnv):
             steps = jnp.zeros(self.num_envs, dtype=int)
             parameters, key = self._split.parameters, self._jax_key
             actions = self._actions(self._zero_actions())
-            jax.block_until_ready(self._split.vector_observe(parameters, y, steps, key))
-            jax.block_until_ready(self._split.vector_advance(parameters, y, steps, actions, key, self._time_limit))
+            observation, _ = self._split.vector_observe(parameters, y, steps, key)
+            arguments = (parameters, y, steps, actions, key)
+            jax.block_until_ready(self._split.vector_advance(*arguments, self._time_limit, observation))
             jax.block_until_ready(
-                self._split.vector_step(parameters, y, steps, actions, key, self._no_reset, y, self._time_limit)
+                self._split.vector_step(*arguments, self._no_reset, y, self._time_limit, observation)
             )
 
     def _starts(self, np_random, options, count: int) -> np.ndarray:
@@ -150,10 +155,10 @@ class GymnasiumVectorEnv(HoldsScene, VectorEnv):
         with self._split.precision():
             self._y = jnp.asarray(y)
             self._steps = jnp.zeros(self.num_envs, dtype=int)
-            observation, self._jax_key = self._split.vector_observe(
+            self._observation, self._jax_key = self._split.vector_observe(
                 self._split.parameters, self._y, self._steps, self._jax_key
             )
-            observation = np.array(observation)
+            observation = np.array(self._observation)
         self._prev_done = np.zeros(self.num_envs, dtype=np.bool_)
         self._last_action = None
         return observation, {}
@@ -163,36 +168,41 @@ class GymnasiumVectorEnv(HoldsScene, VectorEnv):
         assert self._y is not None, "Call reset before using step method."
         split = self._split
         with split.precision():
+            if self._observation is None:  # the state or the scene was assigned
+                self._observation, self._jax_key = split.vector_observe(
+                    split.parameters, self._y, self._steps, self._jax_key
+                )
             restarts = np.count_nonzero(self._prev_done)
             if restarts:
-                # Gymnasium's vector CartPole draws only when some env restarts, for those envs.
+                # Gymnasium's vector CartPole draws only when some env restarts, for those
+                # envs. The rows of the other envs in `_reset_y` are stale and unused.
                 reset_mask = self._prev_done
-                reset_y = np.zeros(self._y.shape, dtype=self._dtype)
-                reset_y[reset_mask] = self._starts(self.np_random, self._options, restarts)
-                self._y, self._steps, observation, outcome, self._jax_key = split.vector_step(
-                    split.parameters, self._y, self._steps, actions, self._jax_key, reset_mask, reset_y,
-                    self._time_limit,
+                self._reset_y[reset_mask] = self._starts(self.np_random, self._options, restarts)
+                outputs = split.vector_step(
+                    split.parameters, self._y, self._steps, actions, self._jax_key, reset_mask, self._reset_y,
+                    self._time_limit, self._observation,
                 )
             else:
                 # No restart: the step without the restart's selects and fresh observations.
-                self._y, self._steps, observation, outcome, self._jax_key = split.vector_advance(
-                    split.parameters, self._y, self._steps, actions, self._jax_key, self._time_limit
+                outputs = split.vector_advance(
+                    split.parameters, self._y, self._steps, actions, self._jax_key, self._time_limit,
+                    self._observation,
                 )
-        # np.array (a writable copy), not jax.device_get: the latter costs far more for
-        # arrays this small.
-        observation, outcome = np.array(observation), np.array(outcome)
-        reward, terminated, truncated, solver_ok, solver_steps = outcome
-        terminated = terminated != 0
-        truncated = truncated != 0
+        self._y, self._steps, observation, outcome, self._jax_key = outputs
+        self._observation = observation
+        # np.array (a writable copy) of the observation, not jax.device_get: the latter
+        # costs far more for arrays this small. Every result below is a new array.
+        observation, outcome = np.array(observation), np.asarray(outcome)
+        terminated, truncated, solver_ok = outcome[1:4] != 0
         self._prev_done = terminated | truncated
         self._last_action = actions
         info = {
-            "solver_ok": solver_ok != 0,
+            "solver_ok": solver_ok,
             "_solver_ok": self._info_mask.copy(),
-            "solver_steps": solver_steps.astype(np.int64),
+            "solver_steps": outcome[4].astype(np.int64),
             "_solver_steps": self._info_mask.copy(),
         }
-        return observation, reward, terminated, truncated, info
+        return observation, outcome[0].copy(), terminated, truncated, info
 
     def render(self):
         if self.render_mode is None:

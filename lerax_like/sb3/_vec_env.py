@@ -5,6 +5,7 @@ from collections.abc import Sequence
 from typing import Any
 
 import gymnasium
+import jax
 import jax.numpy as jnp
 import numpy as np
 from gymnasium.utils import seeding
@@ -64,6 +65,17 @@ class CompiledVecEnv(VecEnv):
         self._generators: list[np.random.Generator | None] = [None] * num_envs
         self._actions: np.ndarray | None = None
         super().__init__(num_envs, self._vector.single_observation_space, self._vector.single_action_space)
+        self._warm_up()
+
+    def _warm_up(self) -> None:
+        # Compile the restart now, not at the first end of an episode in training.
+        vector, split = self._vector, self._vector._split
+        with split.precision():
+            y, steps = jnp.asarray(vector._reset_y), jnp.zeros(self.num_envs, dtype=int)
+            observation, _ = split.vector_observe(split.parameters, y, steps, vector._jax_key)
+            no_reset = np.zeros(self.num_envs, dtype=np.bool_)
+            arguments = (split.parameters, y, steps, vector._jax_key, no_reset, vector._reset_y, observation)
+            jax.block_until_ready(split.vector_restart(*arguments))
 
     # -- SB3's VecEnv ------------------------------------------------------------------
 
@@ -78,11 +90,13 @@ class CompiledVecEnv(VecEnv):
         with split.precision():
             vector._y = jnp.asarray(starts)
             vector._steps = jnp.zeros(self.num_envs, dtype=int)
-            observation, vector._jax_key = split.vector_observe(split.parameters, vector._y, vector._steps, vector._jax_key)
+            vector._observation, vector._jax_key = split.vector_observe(
+                split.parameters, vector._y, vector._steps, vector._jax_key
+            )
         self.reset_infos = [{} for _ in range(self.num_envs)]
         self._reset_seeds()
         self._reset_options()
-        return np.array(observation)
+        return np.array(vector._observation)
 
     def step_async(self, actions: np.ndarray) -> None:
         self._actions = actions
@@ -93,10 +107,15 @@ class CompiledVecEnv(VecEnv):
             raise RuntimeError("call reset before step")
         actions = vector._actions(self._actions)
         with split.precision():
-            vector._y, vector._steps, observation, outcome, vector._jax_key = split.vector_advance(
-                split.parameters, vector._y, vector._steps, actions, vector._jax_key, vector._time_limit
+            if vector._observation is None:  # the state or the scene was assigned
+                vector._observation, vector._jax_key = split.vector_observe(
+                    split.parameters, vector._y, vector._steps, vector._jax_key
+                )
+            vector._y, vector._steps, vector._observation, outcome, vector._jax_key = split.vector_advance(
+                split.parameters, vector._y, vector._steps, actions, vector._jax_key, vector._time_limit,
+                vector._observation,
             )
-        observation, outcome = np.array(observation), np.asarray(outcome)
+        observation, outcome = np.array(vector._observation), np.asarray(outcome)
         reward = outcome[0].astype(np.float32)
         terminated, truncated, solver_ok = outcome[1] != 0, outcome[2] != 0, outcome[3] != 0
         done = terminated | truncated
@@ -112,10 +131,10 @@ class CompiledVecEnv(VecEnv):
             reset_y = np.zeros(vector._y.shape, dtype=vector.dtype)
             reset_y[ended] = self._starts(ended)
             with split.precision():
-                vector._y, vector._steps, fresh, vector._jax_key = split.vector_restart(
-                    split.parameters, vector._y, vector._steps, vector._jax_key, done, reset_y
+                vector._y, vector._steps, vector._observation, vector._jax_key = split.vector_restart(
+                    split.parameters, vector._y, vector._steps, vector._jax_key, done, reset_y, vector._observation
                 )
-            observation[ended] = np.asarray(fresh)[ended]
+            observation[ended] = np.asarray(vector._observation)[ended]
         vector._prev_done = np.zeros(self.num_envs, dtype=np.bool_)
         vector._last_action = actions
         return observation, reward, done, infos
