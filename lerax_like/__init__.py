@@ -50,3 +50,6 @@ __version__ = "0.1.0"
 from . import gym as gym
 
 gym.register_envs()
+
+# Stable-Baselines3 vector envs (`lerax_like.sb3.make_vec_env`); SB3 is imported on first use.
+from . import sb3 as sb3
