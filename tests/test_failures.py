@@ -70,6 +70,8 @@ def test_explicit_euler_divergence_is_flagged_and_ends_the_episode():
 class _NaNWindow(ll.AbstractDynamics):
     """Decays, except that the field is NaN for `0.25 <= t < 0.35`, then decays again."""
 
+    velocity_indices = None
+
     def vector_field(self, t, y, u):
         inside = (t >= 0.25) & (t < 0.35)
         return jnp.where(inside, jnp.nan, -y)
@@ -105,6 +107,8 @@ def test_budget_exhaustion_under_vmap_is_reported_per_env():
 
 
 class _Decay(ll.AbstractDynamics):
+    velocity_indices = None
+
     def vector_field(self, t, y, u):
         return -y + u
 
