@@ -13,8 +13,14 @@ from .integrate import (
     RK4 as RK4,
     SemiImplicitEuler as SemiImplicitEuler,
     SOLVER_PRESETS as SOLVER_PRESETS,
+    SOLVERS as SOLVERS,
+    SolverPreset as SolverPreset,
+    describe_solver as describe_solver,
     has_error_estimate as has_error_estimate,
     make_integrator as make_integrator,
+    register_solver as register_solver,
+    solver_from_spec as solver_from_spec,
+    unregister_solver as unregister_solver,
 )
 from .physics import (
     AbstractChainDynamics as AbstractChainDynamics,
@@ -44,3 +50,6 @@ __version__ = "0.1.0"
 from . import gym as gym
 
 gym.register_envs()
+
+# Stable-Baselines3 vector envs (`lerax_like.sb3.make_vec_env`); SB3 is imported on first use.
+from . import sb3 as sb3

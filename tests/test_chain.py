@@ -277,6 +277,7 @@ def test_three_link_lengths_recovered_within_one_percent(getkey):
     assert float(jnp.max(jnp.abs(fitted.dynamics.lengths - 3.0) / 3.0)) < 0.01
 
 
+@pytest.mark.slow
 def test_adaptive_mpc_swings_up_double_cartpole():
     """Experiment 2 (IDS): iLQR-MPC through a model 20% off fails, refits, then swings up.
 

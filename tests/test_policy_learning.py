@@ -5,6 +5,7 @@ import math
 import equinox as eqx
 import jax.numpy as jnp
 import jax.random as jr
+import pytest
 
 import lerax_like as ll
 from lerax_like.control.learning import MLPPolicy, episode_lengths, policy_return, train_policy_curriculum
@@ -13,6 +14,7 @@ from lerax_like.env import EnvState
 from conftest import relative_error
 
 
+@pytest.mark.slow
 def test_policy_trained_through_the_simulator_balances_for_500_steps():
     # The notebook's recipe (1024 envs, a horizon curriculum, a cart cost), another seed.
     num_envs, horizons = 1024, (50, 100, 200)

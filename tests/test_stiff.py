@@ -42,6 +42,7 @@ def _van_der_pol_reference(mu, y0, t1):
     return solution.y[:, -1]
 
 
+@pytest.mark.slow
 def test_van_der_pol_kvaerno5_reaches_t3000_as_radau():
     env = ll.VanDerPol(mu=1000.0, dt=10.0, solver="kvaerno5")
     ys, infos = _rollout_info(env, [2.0, 0.0], 300)

@@ -11,15 +11,17 @@ class AbstractDynamics(AbstractParametrised):
     """Physics as a vector field `dy/dt = f(t, y, u)`.
 
     Subclasses declare their physical parameters as fields (`parameter(default, range)`:
-    differentiable leaves, checked by name at construction) and implement `vector_field`. They know nothing of rewards, observations, action
-    spaces or rendering: those belong to a scene.
+    differentiable leaves, checked by name at construction) and implement `vector_field`.
+    They know nothing of rewards, observations, action spaces or rendering: those belong
+    to a scene.
 
-    A second-order (mechanical) system declares `velocity_indices`, the components of
-    its state that are velocities (the others are positions): partitioned solvers such
-    as `SemiImplicitEuler` need them.
+    Every dynamics declares `velocity_indices`: for a second-order (mechanical) system
+    the components of its state that are velocities (the others are positions), which
+    partitioned solvers such as `SemiImplicitEuler` need; None for a first-order system,
+    or where the layout depends on the instance (a chain's number of links).
     """
 
-    velocity_indices: ClassVar[tuple[int, ...] | None] = None
+    velocity_indices: eqx.AbstractClassVar[tuple[int, ...] | None]
 
     @abc.abstractmethod
     def vector_field(self, t: ScalarLike, y: State, u: Input) -> State:

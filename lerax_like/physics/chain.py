@@ -115,6 +115,7 @@ class NLinkPendulumDynamics(AbstractChainDynamics):
     on `theta_i` is therefore `u_i - u_{i+1}`.
     """
 
+    velocity_indices: ClassVar[None] = None  # the layout depends on the number of links
     has_cart: ClassVar[bool] = False
 
     masses: Float[Array, " n"]
@@ -169,6 +170,7 @@ class CartChainDynamics(AbstractChainDynamics):
     horizontal force on the cart. The joints are passive.
     """
 
+    velocity_indices: ClassVar[None] = None  # the layout depends on the number of links
     has_cart: ClassVar[bool] = True
 
     cart_mass: Scalar
