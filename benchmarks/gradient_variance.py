@@ -39,23 +39,23 @@ COMMON = dict(horizons=(10, 20, 50, 100, 200), samples=512, reference_samples=81
 
 
 def configs():
+    def end_stops(stiffness, **overrides):
+        settings = dict(solvers=("tsit5",), sigmas=(0.05,), **{**COMMON, "precision_horizon": 200})
+        settings.update(overrides)
+        return GradientVarianceConfig.default(
+            "CartPoleContinuous", scene_kwargs={"end_stop_stiffness": stiffness, **settings.pop("scene_kwargs", {})},
+            **settings,
+        )
+
     return [
         GradientVarianceConfig.default("CartPoleContinuous", solvers=("euler", "rk4"), sigmas=(0.05,), **COMMON),
+        end_stops(1e4),
+        end_stops(1e6),
         GradientVarianceConfig.default("DoubleCartPole", solvers=("rk4", "tsit5"), sigmas=(0.01, 0.1), **COMMON),
-        *(
-            GradientVarianceConfig.default(
-                "CartPoleContinuous", scene_kwargs={"end_stop_stiffness": stiffness}, solvers=("tsit5",),
-                sigmas=(0.05,), **{**COMMON, "precision_horizon": 200},
-            )
-            for stiffness in (1e4, 1e6)
-        ),
         # The stiffest stops without their damper: a vector field with a kink at contact
         # instead of a jump (the damper's force c x_dot appears at once on contact).
-        GradientVarianceConfig.default(
-            "CartPoleContinuous", scene_kwargs={"end_stop_stiffness": 1e6, "end_stop_damping": 0.0},
-            case="CartPoleContinuous[end_stop_stiffness=1e+06,end_stop_damping=0]", solvers=("tsit5",),
-            sigmas=(0.05,), policies=("open_loop",), **{**COMMON, "precision_horizon": 200},
-        ),
+        end_stops(1e6, scene_kwargs={"end_stop_damping": 0.0}, policies=("open_loop",),
+                  case="CartPoleContinuous[end_stop_stiffness=1e+06,end_stop_damping=0]"),
     ]
 
 
@@ -68,12 +68,12 @@ def main():
         print(f"{config.name}: {time.perf_counter() - began:.0f} s")
         for entry in summary(results[-1]):
             print(entry)
-    elapsed = time.perf_counter() - start
-    paths = write_gradient_variance(
-        results, RESULTS, stem="gradient_variance", study_seconds=elapsed,
-        jax=jax.__version__, backend=jax.default_backend(),
-    )
-    print(f"{elapsed:.0f} s; wrote " + ", ".join(paths.values()))
+        # Written after every case, so that a later failure keeps the finished ones.
+        paths = write_gradient_variance(
+            results, RESULTS, stem="gradient_variance", study_seconds=time.perf_counter() - start,
+            jax=jax.__version__, backend=jax.default_backend(),
+        )
+    print(f"{time.perf_counter() - start:.0f} s; wrote " + ", ".join(paths.values()))
 
 
 if __name__ == "__main__":

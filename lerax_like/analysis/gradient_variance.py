@@ -345,8 +345,9 @@ def lqr_gain(env: AbstractEnv, state_weight: float, action_weight: float, iterat
     y = jnp.zeros((n,), dtype)
     a = jnp.zeros((m,), dtype)
     step = lambda y, a: _step(env, y, jnp.reshape(a, env.action_space.shape))[0]  # noqa: E731
-    A = np.asarray(jax.jacfwd(step, argnums=0)(y, a), dtype=np.float64)
-    B = np.asarray(jax.jacfwd(step, argnums=1)(y, a), dtype=np.float64)
+    # Reverse mode: an adaptive solve's default adjoint is a custom VJP, which forward mode cannot pass.
+    A = np.asarray(jax.jacrev(step, argnums=0)(y, a), dtype=np.float64)
+    B = np.asarray(jax.jacrev(step, argnums=1)(y, a), dtype=np.float64)
     dt = float(env.dt)
     Q = state_weight * dt * np.eye(n) + 1e-12 * np.eye(n)
     R = max(action_weight, 1e-12) * dt * np.eye(m)
@@ -523,7 +524,7 @@ def finite_time_lyapunov(
 
     def body(carry, k):
         y, Q, logs = carry
-        J = jax.jacfwd(step)(y, k)
+        J = jax.jacrev(step)(y, k)  # reverse: forward mode cannot pass an adaptive solve's custom VJP
         Q, R = jnp.linalg.qr(J @ Q)
         signs = jnp.sign(jnp.diag(R))
         Q = Q * jnp.where(signs == 0, 1.0, signs)
