@@ -185,6 +185,8 @@ def _timing_unresolved(row: dict[str, Any]) -> bool:
 
 def format_orders(orders: Sequence[dict[str, Any]]) -> str:
     """The fitted orders, one line per schedule and fixed-step solver; in words where none was fitted."""
+    if not orders:
+        return "(none: no solver in this study runs at fixed steps)"
     width = max((len(str(entry["solver"])) for entry in orders), default=9)
     lines = []
     for entry in orders:
@@ -286,9 +288,11 @@ def plot_work_precision(
         panels.append("drift")
     if not fixed and not zero:
         panels.append("steps")
-    columns = 2
-    rows_of_panels = (len(panels) + 1) // 2
-    figure, axes = plt.subplots(rows_of_panels, columns, figsize=(12, 4.6 * rows_of_panels + 0.8), squeeze=False)
+    columns = 3 if len(panels) == 3 else 2
+    rows_of_panels = (len(panels) + columns - 1) // columns
+    figure, axes = plt.subplots(
+        rows_of_panels, columns, figsize=(6 * columns, 4.6 * rows_of_panels + 0.8), squeeze=False
+    )
     axes_by_panel = dict(zip(panels, axes.flat))
     for unused in list(axes.flat)[len(panels):]:
         unused.set_visible(False)
