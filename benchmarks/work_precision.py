@@ -1,6 +1,8 @@
 """Work-precision studies of the solvers, committed under results/: CartPole and the stiff Van der Pol.
 
-    python benchmarks/work_precision.py [--quick] [--scenes CartPole VanDerPol ...] [--out DIR]
+    python -m benchmarks work_precision             # CartPole and VanDerPol, the full studies
+    python -m benchmarks work_precision --quick     # CartPole, `lerax-like study --quick` sizes
+    python -m benchmarks.work_precision [--scenes CartPole VanDerPol ...] [--repeats 15] [--out DIR]
 
 For each scene (default: CartPole, and Van der Pol at mu = 1e3 over [0, 3000], the
 classic stiff test), runs the default (full) study of `lerax-like study SCENE`, with the
@@ -14,13 +16,11 @@ the figure's legend). Timings are of this machine, in this run.
 import argparse
 import datetime
 import os
-import sys
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), os.pardir))
-
-from lerax_like.analysis import SCENES, StudyConfig, run_study  # noqa: E402
-from lerax_like.analysis.report import cheapest_at, format_orders, format_table, write_study  # noqa: E402
-from lerax_like.analysis.study import environment_record  # noqa: E402
+from benchmarks import results_dir
+from lerax_like.analysis import SCENES, StudyConfig, run_study
+from lerax_like.analysis.report import cheapest_at, format_orders, format_table, write_study
+from lerax_like.analysis.study import environment_record
 
 
 def main(argv=None) -> int:
@@ -34,9 +34,7 @@ def main(argv=None) -> int:
     parser.add_argument("--no-progress", action="store_true")
     arguments = parser.parse_args(argv)
     scenes = arguments.scenes or (["CartPole"] if arguments.quick else ["CartPole", "VanDerPol"])
-    out = arguments.out or os.path.join(
-        os.path.dirname(os.path.abspath(__file__)), "results", *(["quick"] if arguments.quick else [])
-    )
+    out = arguments.out or results_dir(arguments.quick)
     os.makedirs(out, exist_ok=True)
     for scene in scenes:
         date = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
@@ -66,4 +64,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    raise SystemExit(main())

@@ -2,6 +2,7 @@
 
     lerax-like study CartPole [--quick] [--out DIR] [--solver NAME ...]
     lerax-like gradients CartPole [--quick] [--out DIR] [--no-plot] [--solver NAME ...]
+    lerax-like gradient-variance DoubleCartPole [--quick] [--solver NAME ...] [--out DIR] [--no-plot]
     lerax-like rollout CartPole [--steps N] [--seed S]
     lerax-like solvers
 """
@@ -110,6 +111,72 @@ def _gradients(arguments) -> int:
     return 0
 
 
+def _gradient_variance(arguments) -> int:
+    from .analysis.gradient_variance import (
+        GradientVarianceConfig,
+        format_gradient_variance_table,
+        run_gradient_variance,
+        summary,
+        write_gradient_variance,
+    )
+
+    overrides = {}
+    if arguments.seed is not None:
+        overrides["seed"] = arguments.seed
+    if arguments.solver:
+        overrides["solvers"] = tuple(arguments.solver)
+    if arguments.dtype is not None:
+        overrides["dtype"] = arguments.dtype
+    stiffnesses = arguments.end_stop_stiffness or [None]
+    try:
+        configs = [
+            GradientVarianceConfig.default(
+                arguments.scene, quick=arguments.quick,
+                scene_kwargs={} if k is None else {"end_stop_stiffness": k}, **overrides,
+            )
+            for k in stiffnesses
+        ]
+        results = []
+        start = time.perf_counter()
+        for config in configs:
+            results.append(run_gradient_variance(config, progress=lambda m: print(m, file=sys.stderr)))
+        elapsed = time.perf_counter() - start
+    except ValueError as error:
+        print(f"lerax-like gradient-variance: {error}", file=sys.stderr)
+        return 2
+    if arguments.scene == "CartPole":
+        print("CartPole is studied through CartPoleContinuous: a force of action * force_mag newtons, "
+              "continuous, so that the cost is differentiable in the actions")
+    plot = not arguments.no_plot
+    if plot:
+        try:
+            import matplotlib  # noqa: F401
+        except ImportError:
+            print("no plot: matplotlib is not installed (pip install 'lerax_like[study]')")
+            plot = False
+    paths = write_gradient_variance(results, arguments.out, stem=f"{arguments.scene}_gradient_variance",
+                                    plot=plot, study_seconds=elapsed)
+    for result in results:
+        print(f"{result.config.name}: {result.config.samples} samples per estimator, reference of "
+              f"{result.config.reference_samples} antithetic zeroth-order samples ({result.config.dtype})")
+        print(format_gradient_variance_table(result.rows))
+        for entry in summary(result):
+            print(f"  {entry['solver']} {entry['policy']}: first-order variance x"
+                  + ", x".join(f"{g:.3g} (sigma {s})" for s, g in entry["first_order_variance_growth"].items())
+                  + f" from H={min(result.config.horizons)} to H={max(result.config.horizons)}")
+            for c in entry["crossover"]:
+                print(f"    sigma {c['sigma']}: Lyapunov exponent {c['lyapunov_exponent']:.3g}/s, variance growth "
+                      f"rate {c['variance_growth_rate']:.3g}/s; first order above zeroth order from H = "
+                      f"{c['measured_horizon']} (measured), {c['predicted_horizon']} (predicted); agree: {c['agree']}")
+            if "float32_first_digit_lost_horizon" in entry:
+                print(f"    float32 loses the leading digit at H = {entry['float32_first_digit_lost_horizon']} "
+                      f"(searched up to {entry['float32_horizons_searched']}; relative error there "
+                      f"{entry['float32_relative_error_at_longest']:.1e})")
+        print()
+    print(f"study took {elapsed:.1f} s; wrote " + ", ".join(paths.values()))
+    return 0
+
+
 def _rollout(arguments) -> int:
     from .analysis.rollout_check import format_rollouts, preset_rollouts
 
@@ -148,6 +215,7 @@ def _solvers(arguments) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     from .analysis.scenes import SCENES
+    from .integrate import SOLVER_PRESETS
 
     parser = argparse.ArgumentParser(
         prog="lerax-like", description="Solver-accuracy studies on continuous-time control envs."
@@ -180,6 +248,27 @@ def main(argv: list[str] | None = None) -> int:
     gradients.add_argument("--no-plot", action="store_true", help="skip the PNG (no matplotlib needed)")
     gradients.add_argument("--solver", action="append", metavar="NAME", help=SOLVER_HELP)
     gradients.set_defaults(run=_gradients)
+
+    variance = commands.add_parser(
+        "gradient-variance",
+        help="first- vs zeroth-order gradient estimators against horizon: variance, bias, chaos, float32",
+    )
+    variance.add_argument("scene", choices=sorted(SCENES),
+                          help="a scene with continuous actions that does not clip or wrap its state "
+                               "(CartPole is studied through CartPoleContinuous)")
+    variance.add_argument("--quick", action="store_true",
+                          help="horizons 10, 30, 100, 256 samples (default: 10 to 200, 512 samples)")
+    variance.add_argument("--solver", nargs="+", metavar="NAME", choices=SOLVER_PRESETS,
+                          help="solver presets (default: rk4; tsit5 with end stops)")
+    variance.add_argument("--end-stop-stiffness", nargs="+", type=float, metavar="K",
+                          help="cart-poles: end stops of these stiffnesses (N/m) at 0.5 m, one study each")
+    variance.add_argument("--dtype", choices=("float64", "float32"), default=None,
+                          help="dtype of the estimators (default float64; float32 vs float64 is measured anyway)")
+    variance.add_argument("--out", default="lerax_like_gradient_variance",
+                          help="folder for CSV, PNG and JSON (default: %(default)s)")
+    variance.add_argument("--seed", type=int, default=None, help="seed of the samples (default 0)")
+    variance.add_argument("--no-plot", action="store_true", help="skip the PNG (no matplotlib needed)")
+    variance.set_defaults(run=_gradient_variance)
 
     rollout = commands.add_parser("rollout", help="one episode with each solver preset, error and wall time")
     rollout.add_argument("scene", choices=sorted(SCENES))

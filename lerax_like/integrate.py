@@ -17,7 +17,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import optimistix
-# diffrax's marker for "take this tolerance from the step-size controller" (not re-exported).
+# diffrax's marker for "take this tolerance from the step-size controller": diffrax (0.7)
+# exports no public name for it, so this one private import stays.
 from diffrax._root_finder import use_stepsize_tol
 
 from ._checks import check_count
@@ -553,6 +554,9 @@ class Integrator(eqx.Module):
 
     def _step_once(self, term, y0, u, dt, projection):
         solver = self.solver
+        if isinstance(solver, diffrax.AbstractERK) and isinstance(solver.tableau, diffrax.ButcherTableau):
+            y1 = _explicit_runge_kutta_step(solver.tableau, term, y0, u, dt)
+            return self._finish(y1, jnp.asarray(True), jnp.asarray(1), jnp.asarray(0), projection)
         if isinstance(solver, diffrax.AbstractRungeKutta) and solver.scan_kind is None:
             # As `diffeqsolve` sets it for the adjoint: a Runge-Kutta method's stage loop
             # is by default checkpointed, which forward-mode autodiff cannot pass through.
@@ -574,6 +578,23 @@ class Integrator(eqx.Module):
         ok: BoolScalar = solved & finite & jnp.all(jnp.isfinite(y1))
         info = {"solver_ok": ok, "solver_steps": steps, "solver_rejected_steps": rejected}
         return y1, info
+
+
+def _explicit_runge_kutta_step(tableau: diffrax.ButcherTableau, term, y0: State, u: Input, dt) -> State:
+    """One step of an explicit Runge-Kutta method from its Butcher tableau, stage by stage.
+
+    What the solver's own `step` computes (up to rounding), written out: diffrax runs the
+    stages in a loop (a `while` over a stage buffer, for its autodiff), which XLA cannot
+    fuse; unrolled, a vmapped RK4 env step (Acrobot) is plain arithmetic, as a hand-written
+    one is (`benchmarks/gym_vector.py`).
+    """
+    t0 = jnp.zeros((), dtype=y0.dtype)
+    stages = [term.vf(t0, y0, u)]
+    for c, a_row in zip(tableau.c, tableau.a_lower):
+        increment = sum(float(a) * k for a, k in zip(a_row, stages) if a != 0)
+        y = y0 if isinstance(increment, int) else y0 + dt * increment
+        stages.append(term.vf(float(c) * dt, y, u))
+    return y0 + dt * sum(float(b) * k for b, k in zip(tableau.b_sol, stages) if b != 0)
 
 
 def make_integrator(

@@ -38,6 +38,8 @@ def test_uniform_shapes_and_dtypes():
 
 
 class _Drift(ll.AbstractDynamics):
+    velocity_indices = None
+
     def vector_field(self, t, y, u):
         return u
 

@@ -30,9 +30,9 @@ from .._types import Array, BoolScalar, Float, Scalar, State
 from ..env import AbstractEnv, EnvState, rollout
 from ..gradients import with_adjoint
 from ..integrate import Integrator, describe_solver, make_integrator
-from .gradcheck import _selection
+from .gradcheck import selection_spec
 from .scenes import SCENES, make_scene
-from .study import SolverSweep, StudyResult, _tolerance_pairs, environment_record
+from .study import SolverSweep, StudyResult, environment_record, tolerance_pairs
 
 
 Loss = Callable[[AbstractEnv], tuple[Scalar, BoolScalar]]
@@ -166,7 +166,7 @@ def gradient_work_precision(
         env_i = with_integrator(env, integrator)
         if adjoint is not None:
             env_i = with_adjoint(env_i, adjoint)
-        return eqx.partition(env_i, _selection(env_i, where))
+        return eqx.partition(env_i, selection_spec(env_i, where))
 
     reference_gradient = _gradient_function(loss, "forward")
     g_ref, ok = reference_gradient(*parts(reference_integrator(reference_rtol), "forward"))
@@ -229,16 +229,16 @@ def default_gradient_sweeps(*, quick: bool = False) -> tuple[SolverSweep, ...]:
         return (
             SolverSweep("euler", substeps=(1, 4)),
             SolverSweep("rk4", substeps=(1, 4)),
-            SolverSweep("tsit5", tolerances=_tolerance_pairs([4, 8])),
+            SolverSweep("tsit5", tolerances=tolerance_pairs([4, 8])),
         )
     powers = (1, 2, 4, 8, 16, 32)
     return (
         SolverSweep("euler", substeps=powers),
         SolverSweep("midpoint", substeps=powers),
         SolverSweep("rk4", substeps=powers),
-        SolverSweep("tsit5", tolerances=_tolerance_pairs([3, 5, 7, 9])),
-        SolverSweep("dopri5", tolerances=_tolerance_pairs([3, 5, 7, 9])),
-        SolverSweep("kvaerno5", tolerances=_tolerance_pairs([3, 5, 7, 9])),
+        SolverSweep("tsit5", tolerances=tolerance_pairs([3, 5, 7, 9])),
+        SolverSweep("dopri5", tolerances=tolerance_pairs([3, 5, 7, 9])),
+        SolverSweep("kvaerno5", tolerances=tolerance_pairs([3, 5, 7, 9])),
     )
 
 
@@ -255,7 +255,7 @@ def gradient_sweeps_for(solvers: Sequence[Any], *, quick: bool = False) -> tuple
         name = describe_solver(solver).name
         sweeps.append(SolverSweep(solver, substeps=substeps, name=name))
         if describe_solver(solver).error_estimate:
-            sweeps.append(SolverSweep(solver, tolerances=_tolerance_pairs(exponents), name=name))
+            sweeps.append(SolverSweep(solver, tolerances=tolerance_pairs(exponents), name=name))
     return tuple(sweeps)
 
 

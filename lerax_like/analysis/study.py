@@ -131,8 +131,9 @@ def _powers_of_two(n: int) -> tuple[int, ...]:
     return tuple(2**i for i in range(n))
 
 
-def _tolerance_pairs(exponents: Sequence[int]) -> tuple[tuple[float, float], ...]:
-    # DiffEqDevTools' convention: atol three orders below rtol.
+def tolerance_pairs(exponents: Sequence[int]) -> tuple[tuple[float, float], ...]:
+    """`(rtol, atol)` pairs `(10**-e, 10**-(e + 3))`: DiffEqDevTools' convention, atol three
+    orders below rtol."""
     return tuple((10.0**-e, 10.0 ** -(e + 3)) for e in exponents)
 
 
@@ -167,7 +168,7 @@ def sweeps_for(
         if not (stiff and description.error_estimate):
             sweeps.append(SolverSweep(solver, substeps=_substeps_for_order(description.order, quick=quick), name=name))
         if description.error_estimate:
-            sweeps.append(SolverSweep(solver, tolerances=_tolerance_pairs(exponents), name=name))
+            sweeps.append(SolverSweep(solver, tolerances=tolerance_pairs(exponents), name=name))
     return tuple(sweeps)
 
 
@@ -179,16 +180,16 @@ def default_sweeps(*, quick: bool = False, stiff: bool = False) -> tuple[SolverS
     if stiff:
         if quick:
             return (
-                SolverSweep("tsit5", tolerances=_tolerance_pairs([4, 6])),
-                SolverSweep("kvaerno3", tolerances=_tolerance_pairs([4, 6])),
-                SolverSweep("kvaerno5", tolerances=_tolerance_pairs([4, 6, 8])),
+                SolverSweep("tsit5", tolerances=tolerance_pairs([4, 6])),
+                SolverSweep("kvaerno3", tolerances=tolerance_pairs([4, 6])),
+                SolverSweep("kvaerno5", tolerances=tolerance_pairs([4, 6, 8])),
             )
         return (
-            SolverSweep("tsit5", tolerances=_tolerance_pairs([4, 6, 8])),
-            SolverSweep("implicit_euler", tolerances=_tolerance_pairs([2, 3, 4, 5])),
-            SolverSweep("kvaerno3", tolerances=_tolerance_pairs(range(4, 10))),
-            SolverSweep("kvaerno4", tolerances=_tolerance_pairs(range(4, 11))),
-            SolverSweep("kvaerno5", tolerances=_tolerance_pairs(range(4, 12))),
+            SolverSweep("tsit5", tolerances=tolerance_pairs([4, 6, 8])),
+            SolverSweep("implicit_euler", tolerances=tolerance_pairs([2, 3, 4, 5])),
+            SolverSweep("kvaerno3", tolerances=tolerance_pairs(range(4, 10))),
+            SolverSweep("kvaerno4", tolerances=tolerance_pairs(range(4, 11))),
+            SolverSweep("kvaerno5", tolerances=tolerance_pairs(range(4, 12))),
         )
     if quick:
         # Each substep count is a separate compilation (substeps shape the solve), so
@@ -196,7 +197,7 @@ def default_sweeps(*, quick: bool = False, stiff: bool = False) -> tuple[SolverS
         return (
             SolverSweep("euler", substeps=(16, 64, 256)),
             SolverSweep("rk4", substeps=(1, 2, 4)),
-            SolverSweep("tsit5", tolerances=_tolerance_pairs([4, 7, 9, 11])),
+            SolverSweep("tsit5", tolerances=tolerance_pairs([4, 7, 9, 11])),
         )
     return (
         SolverSweep("euler", substeps=_powers_of_two(11)),
@@ -204,9 +205,9 @@ def default_sweeps(*, quick: bool = False, stiff: bool = False) -> tuple[SolverS
         SolverSweep("midpoint", substeps=_powers_of_two(8)),
         SolverSweep("rk4", substeps=_powers_of_two(6)),
         SolverSweep("tsit5", substeps=_powers_of_two(4)),
-        SolverSweep("tsit5", tolerances=_tolerance_pairs(range(4, 13))),
-        SolverSweep("dopri5", tolerances=_tolerance_pairs(range(4, 13))),
-        SolverSweep("dopri8", tolerances=_tolerance_pairs(range(4, 13))),
+        SolverSweep("tsit5", tolerances=tolerance_pairs(range(4, 13))),
+        SolverSweep("dopri5", tolerances=tolerance_pairs(range(4, 13))),
+        SolverSweep("dopri8", tolerances=tolerance_pairs(range(4, 13))),
     )
 
 

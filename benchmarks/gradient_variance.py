@@ -1,0 +1,80 @@
+"""When do the simulator's gradients pay? First- vs zeroth-order gradient estimators against horizon.
+
+The study of Suh et al. (ICML 2022) on three problems, per solver (see
+`lerax_like.analysis.gradient_variance`):
+
+- CartPoleContinuous from a 0.1 rad tilt (smooth; Euler, Gymnasium's step, and RK4);
+- DoubleCartPole from a 0.05 rad tilt of the first pole (chaotic once it falls; RK4 and
+  Tsit5), at two smoothing scales;
+- the cart-pole with end stops of stiffness 1e4 and 1e6 N/m at 0.5 m (damping ratio
+  about 0.1), running into one at 1 m/s (stiff contact; Tsit5, adaptive), and at 1e6
+  without the damper.
+
+Horizons 10 to 200 env steps of 0.02 s, an open-loop action sequence and a linear
+feedback policy (around the LQR gain; zero gain with the end stops), 512 samples per
+estimator and 8192 antithetic samples for the reference, float64; float32 against float64
+up to 400 steps.
+
+    python benchmarks/gradient_variance.py   # writes benchmarks/results/gradient_variance*.{csv,json,png}
+"""
+
+import pathlib
+import sys
+import time
+
+import jax
+
+jax.config.update("jax_enable_x64", True)
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
+
+from lerax_like.analysis.gradient_variance import (  # noqa: E402
+    GradientVarianceConfig,
+    run_gradient_variance,
+    summary,
+    write_gradient_variance,
+)
+
+RESULTS = pathlib.Path(__file__).parent / "results"
+COMMON = dict(horizons=(10, 20, 50, 100, 200), samples=512, reference_samples=8192, precision_horizon=400)
+
+
+def configs():
+    return [
+        GradientVarianceConfig.default("CartPoleContinuous", solvers=("euler", "rk4"), sigmas=(0.05,), **COMMON),
+        GradientVarianceConfig.default("DoubleCartPole", solvers=("rk4", "tsit5"), sigmas=(0.01, 0.1), **COMMON),
+        *(
+            GradientVarianceConfig.default(
+                "CartPoleContinuous", scene_kwargs={"end_stop_stiffness": stiffness}, solvers=("tsit5",),
+                sigmas=(0.05,), **{**COMMON, "precision_horizon": 200},
+            )
+            for stiffness in (1e4, 1e6)
+        ),
+        # The stiffest stops without their damper: a vector field with a kink at contact
+        # instead of a jump (the damper's force c x_dot appears at once on contact).
+        GradientVarianceConfig.default(
+            "CartPoleContinuous", scene_kwargs={"end_stop_stiffness": 1e6, "end_stop_damping": 0.0},
+            case="CartPoleContinuous[end_stop_stiffness=1e+06,end_stop_damping=0]", solvers=("tsit5",),
+            sigmas=(0.05,), policies=("open_loop",), **{**COMMON, "precision_horizon": 200},
+        ),
+    ]
+
+
+def main():
+    results = []
+    start = time.perf_counter()
+    for config in configs():
+        began = time.perf_counter()
+        results.append(run_gradient_variance(config, progress=print))
+        print(f"{config.name}: {time.perf_counter() - began:.0f} s")
+        for entry in summary(results[-1]):
+            print(entry)
+    elapsed = time.perf_counter() - start
+    paths = write_gradient_variance(
+        results, RESULTS, stem="gradient_variance", study_seconds=elapsed,
+        jax=jax.__version__, backend=jax.default_backend(),
+    )
+    print(f"{elapsed:.0f} s; wrote " + ", ".join(paths.values()))
+
+
+if __name__ == "__main__":
+    main()
