@@ -279,7 +279,7 @@ def plot_work_precision(
     zero = [row for row in rows if row["schedule"] == "zero" and row["solver_ok"]
             and row["controller"] == "ConstantStepSize" and not math.isnan(row.get("energy_drift", math.nan))]
     labels = list(dict.fromkeys(row["label"] for row in selected))
-    fixed = [label for label in labels if selected[[r["label"] for r in selected].index(label)]["controller"] == "ConstantStepSize"]
+    fixed = {row["label"] for row in selected if row["controller"] == "ConstantStepSize"}
     by_evaluations = all(not math.isnan(row["vector_field_evaluations"]) for row in selected)
     panels = ["cost", "time"]
     if fixed:
