@@ -225,3 +225,18 @@ def test_bad_solver_names_are_usage_errors(command, capsys):
             main([command, "CartPole", "--quick", "--solver", spec])
         assert exit_info.value.code == 2
         assert words in capsys.readouterr().err, spec
+
+
+def test_solvers_are_swept_by_what_they_offer():
+    from lerax_like.analysis import sweeps_for
+
+    sweeps = sweeps_for(["rk4", diffrax.Bosh3(), "kvaerno5", diffrax.Bosh3()], quick=True)
+    kinds = [(sweep.name, sweep.adaptive) for sweep in sweeps]
+    # No error estimate: substeps only; an estimate: substeps and tolerances; two solvers
+    # of one class are told apart.
+    assert kinds == [("rk4", False), ("Bosh3", False), ("Bosh3", True), ("kvaerno5", False), ("kvaerno5", True),
+                     ("Bosh3#2", False), ("Bosh3#2", True)]
+    stiff = sweeps_for(["rk4", "kvaerno5"], stiff=True)
+    assert [(sweep.name, sweep.adaptive) for sweep in stiff] == [("rk4", False), ("kvaerno5", True)]
+    with pytest.raises(ValueError, match="no error estimate"):
+        SolverSweep("rk4", tolerances=((1e-6, 1e-9),))

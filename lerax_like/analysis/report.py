@@ -185,6 +185,8 @@ def _timing_unresolved(row: dict[str, Any]) -> bool:
 
 def format_orders(orders: Sequence[dict[str, Any]]) -> str:
     """The fitted orders, one line per schedule and fixed-step solver; in words where none was fitted."""
+    if not orders:
+        return "(none: no solver in this study runs at fixed steps)"
     width = max((len(str(entry["solver"])) for entry in orders), default=9)
     lines = []
     for entry in orders:
@@ -277,7 +279,7 @@ def plot_work_precision(
     zero = [row for row in rows if row["schedule"] == "zero" and row["solver_ok"]
             and row["controller"] == "ConstantStepSize" and not math.isnan(row.get("energy_drift", math.nan))]
     labels = list(dict.fromkeys(row["label"] for row in selected))
-    fixed = [label for label in labels if selected[[r["label"] for r in selected].index(label)]["controller"] == "ConstantStepSize"]
+    fixed = {row["label"] for row in selected if row["controller"] == "ConstantStepSize"}
     by_evaluations = all(not math.isnan(row["vector_field_evaluations"]) for row in selected)
     panels = ["cost", "time"]
     if fixed:
@@ -286,9 +288,11 @@ def plot_work_precision(
         panels.append("drift")
     if not fixed and not zero:
         panels.append("steps")
-    columns = 2
-    rows_of_panels = (len(panels) + 1) // 2
-    figure, axes = plt.subplots(rows_of_panels, columns, figsize=(12, 4.6 * rows_of_panels + 0.8), squeeze=False)
+    columns = 3 if len(panels) == 3 else 2
+    rows_of_panels = (len(panels) + columns - 1) // columns
+    figure, axes = plt.subplots(
+        rows_of_panels, columns, figsize=(6 * columns, 4.6 * rows_of_panels + 0.8), squeeze=False
+    )
     axes_by_panel = dict(zip(panels, axes.flat))
     for unused in list(axes.flat)[len(panels):]:
         unused.set_visible(False)

@@ -2,12 +2,15 @@
 
 A study takes a scene, a batch of initial states, action schedules, a horizon in env
 steps, and solver sweeps (substeps for fixed-step solvers, paired `rtol`/`atol` for
-adaptive ones). For each setting it integrates the batch through the env's own
-integrator (`env.integrator.integrate` over `[0, dt]` per env step, the input held, as
-`env.transition` does), and measures
+adaptive ones) of any solver: a preset name, a diffrax solver, or a solver registered
+with `lerax_like.register_solver`. For each setting it integrates the batch through the
+env's own step (`env.evolve` over `[0, dt]` per env step, the input held), and measures
 
 - the error against an independent SciPy reference, at the final time and maximal over
-  the trajectory (max norm over state components and initial states);
+  the env-step ends (max norm over state components and initial states);
+- the dense errors, as DiffEqDevTools' `L2` and `Linf`: root mean square and maximum over
+  a grid of `dense_points` times per env step (its end included), from the solver's own
+  dense output against the reference's (`solve_ivp(dense_output=True)`);
 - the run time of the whole batch under `vmap` (compiled first, `block_until_ready`,
   minimum of repeats);
 - solver steps and vector-field evaluations, the machine-independent cost;
