@@ -164,6 +164,31 @@ def gradient_error(folder, link):
     return lines
 
 
+def gradient_variance(folder, link):
+    rows = _read_csv(folder, "gradient_variance.csv")
+    if rows is None:
+        return []
+    lines = []
+    for figure in sorted(folder.glob("gradient_variance*.png")):
+        lines += [f"![{figure.stem}]({link}/{figure.name})", ""]
+    first = {(r["case"], r["solver"], r["policy"], r["dtype"], r["sigma"], r["horizon"]): r
+             for r in rows if r["estimator"] == "first_order"}
+    zeroth = {(r["case"], r["solver"], r["policy"], r["dtype"], r["sigma"], r["horizon"]): r
+              for r in rows if r["estimator"] == "zeroth_order"}
+    table = []
+    for key, row in first.items():
+        other = zeroth.get(key)
+        table.append([*key, _g(row["variance"], 2), _g(other["variance"], 2) if other else "",
+                      _g(row["relative_bias"], 2), row["failed_samples"]])
+    lines += ["Variance (trace of the per-sample covariance) of the first-order (autodiff) and zeroth-order "
+              "(randomised smoothing) estimators, and the first-order estimator's bias relative to the "
+              "reference; every column in `gradient_variance.csv`:", ""]
+    return lines + _table(
+        ["case", "solver", "policy", "dtype", "sigma", "horizon", "first-order variance", "zeroth-order variance",
+         "first-order relative bias", "failed samples"], table,
+    )
+
+
 def gradient_memory(folder, link):
     data = _read_json(folder, "gradient_memory.json")
     if data is None:
@@ -293,6 +318,16 @@ def gym_vector(folder, link):
     rows = _read_csv(folder, "gym_vector.csv")
     if rows is None:
         return []
+    if "ours_steps_per_s" in rows[0]:
+        return ["Steps per second of the vector env (fastest interleaved block), against a hand-written JAX step "
+                "of the same physics (the XLA floor) and against Gymnasium's own vector env in the same run:", ""] + _table(
+            ["id", "N", "dtype", "ours", "floor", "ours / floor", "Gymnasium's", "ours / Gymnasium's", "load"],
+            [[row["id"], row["num_envs"], row["dtype"], _mega(row["ours_steps_per_s"]), _mega(row["floor_steps_per_s"]),
+              f"{float(row['ours_vs_floor']):.2f}",
+              f"{_mega(row['peer_steps_per_s'])} ({row['peer']})" if row["peer_steps_per_s"] else "",
+              f"{float(row['ours_vs_peer']):.2f}" if row["ours_vs_peer"] else "", row["load_average_1min"]]
+             for row in rows],
+        )
     return _table(
         ["N", "lerax_like steps/s (median)", "Gymnasium steps/s (median)", "ratio (median)", "ratio (best)", "load"],
         [[row["num_envs"], _mega(row["lerax_like_steps_per_s_median"]), _mega(row["gymnasium_steps_per_s_median"]),
@@ -392,6 +427,7 @@ def sharded_rollout(folder, link):
 SECTIONS = {
     "work_precision": work_precision,
     "gradient_error": gradient_error,
+    "gradient_variance": gradient_variance,
     "gradient_memory": gradient_memory,
     "throughput": throughput,
     "profile_step": profile_step,

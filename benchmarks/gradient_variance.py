@@ -15,18 +15,19 @@ feedback policy (around the LQR gain; zero gain with the end stops), 512 samples
 estimator and 8192 antithetic samples for the reference, float64; float32 against float64
 up to 400 steps.
 
-    python benchmarks/gradient_variance.py   # writes benchmarks/results/gradient_variance*.{csv,json,png}
+    python -m benchmarks gradient_variance            # writes benchmarks/results/gradient_variance*.{csv,json,png}
+    python -m benchmarks gradient_variance --quick    # the smooth cart-pole only, small sizes, into results/quick/
 """
 
+import argparse
 import pathlib
-import sys
 import time
 
 import jax
 
 jax.config.update("jax_enable_x64", True)
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
 
+from benchmarks import results_dir  # noqa: E402
 from lerax_like.analysis.gradient_variance import (  # noqa: E402
     GradientVarianceConfig,
     run_gradient_variance,
@@ -34,11 +35,14 @@ from lerax_like.analysis.gradient_variance import (  # noqa: E402
     write_gradient_variance,
 )
 
-RESULTS = pathlib.Path(__file__).parent / "results"
 COMMON = dict(horizons=(10, 20, 50, 100, 200), samples=512, reference_samples=8192, precision_horizon=400)
+QUICK = dict(horizons=(10, 50), samples=64, reference_samples=512, precision_horizon=50)
 
 
-def configs():
+def configs(quick: bool = False):
+    if quick:
+        return [GradientVarianceConfig.default("CartPoleContinuous", solvers=("euler", "rk4"), sigmas=(0.05,), **QUICK)]
+
     def end_stops(stiffness, **overrides):
         settings = dict(solvers=("tsit5",), sigmas=(0.05,), **{**COMMON, "precision_horizon": 200})
         settings.update(overrides)
@@ -59,10 +63,16 @@ def configs():
     ]
 
 
-def main():
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="the smooth cart-pole only: horizons 10 and 50, 64 samples")
+    parser.add_argument("--out", type=pathlib.Path, default=None, help="default: benchmarks/results[/quick]")
+    arguments = parser.parse_args(argv)
+    out = arguments.out or results_dir(arguments.quick)
+    out.mkdir(parents=True, exist_ok=True)
     results = []
     start = time.perf_counter()
-    for config in configs():
+    for config in configs(arguments.quick):
         began = time.perf_counter()
         results.append(run_gradient_variance(config, progress=print))
         print(f"{config.name}: {time.perf_counter() - began:.0f} s")
@@ -70,7 +80,7 @@ def main():
             print(entry)
         # Written after every case, so that a later failure keeps the finished ones.
         paths = write_gradient_variance(
-            results, RESULTS, stem="gradient_variance", study_seconds=time.perf_counter() - start,
+            results, out, stem="gradient_variance", study_seconds=time.perf_counter() - start,
             jax=jax.__version__, backend=jax.default_backend(),
         )
     print(f"{time.perf_counter() - start:.0f} s; wrote " + ", ".join(paths.values()))

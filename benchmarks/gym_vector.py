@@ -1,8 +1,8 @@
 """Steps per second of the vector env against the XLA floor and against Gymnasium, in one run.
 
-    python benchmarks/gym_vector.py                 # all five ids, N = 1024 and 16384, float64 and float32
-    python benchmarks/gym_vector.py --quick         # fewer steps and repeats, N = 1024
-    python benchmarks/gym_vector.py --ids CartPole-v1 --num-envs 1024
+    python -m benchmarks gym_vector                 # all five ids, N = 1024 and 16384, float64 and float32
+    python -m benchmarks gym_vector --quick         # fewer steps and repeats, N = 1024
+    python -m benchmarks.gym_vector --ids CartPole-v1 --num-envs 1024 [--out DIR]
 
 For each registered id, number of envs N and dtype, three vector envs step the same
 pre-drawn random actions (sampled from the action space, seed 0; episodes end and restart
@@ -108,11 +108,12 @@ def main(argv=None) -> None:
     parser.add_argument("--repeats", type=int, default=None)
     parser.add_argument("--no-peer", action="store_true", help="skip Gymnasium's envs")
     parser.add_argument("--quick", action="store_true")
-    parser.add_argument("--output", type=Path, default=None)
+    parser.add_argument("--out", type=Path, default=None, help="folder (default: benchmarks/results[/quick])")
+    parser.add_argument("--output", type=Path, default=None, help="the CSV file (default: OUT/gym_vector.csv)")
     args = parser.parse_args(argv)
     num_envs = args.num_envs or ([1024] if args.quick else [1024, 16384])
     repeats = args.repeats or (3 if args.quick else 9)
-    output = args.output or results_dir(args.quick) / "gym_vector.csv"
+    output = args.output or (args.out or results_dir(args.quick)) / "gym_vector.csv"
 
     header = {
         "date_utc": datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M"),

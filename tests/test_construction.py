@@ -40,6 +40,7 @@ def test_unknown_solver_name_lists_the_presets():
         ll.Integrator("euler")
 
 
+@pytest.mark.slow  # one compiled transition per solver: 319 s at load 12 on 2 cores
 def test_every_preset_and_solver_object_builds_and_steps():
     state = EnvState(y=jnp.array([0.0, 0.0, 0.1, 0.0]), steps=jnp.zeros((), int))
     transition = eqx.filter_jit(lambda env: env.transition(state, jnp.asarray(1), key=jax.random.key(0)))

@@ -40,3 +40,9 @@ def test_documentation_builds_strictly(tmp_path):
     for notebook in sorted((ROOT / "notebooks").glob("*.ipynb")):
         assert (site / "notebooks" / notebook.stem / "index.html").exists(), f"{notebook.name} not rendered"
 
+
+
+def test_every_notebook_is_in_the_documentation_nav():
+    nav = (ROOT / "mkdocs.yml").read_text()
+    missing = [path.name for path in (ROOT / "notebooks").glob("*.ipynb") if f"notebooks/{path.name}" not in nav]
+    assert not missing, f"add to mkdocs.yml's nav: {missing}"
