@@ -408,7 +408,7 @@ def _attributes(env_id):
     """Gymnasium's attributes that the spec maps and Gymnasium's env has (its continuous
     mountain car has no `gravity`: the constant is written into its step)."""
     reference = gymnasium.make(reference_id(env_id)).unwrapped
-    names = [name for name, _ in SPECS[env_id].declared.attributes]
+    names = list(dict.fromkeys(name for name, _ in SPECS[env_id].declared.attributes))
     present = [name for name in names if hasattr(reference, name)]
     assert set(names) - set(present) <= {"gravity"}, set(names) - set(present)
     return present
