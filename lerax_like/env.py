@@ -62,9 +62,9 @@ class GymnasiumSpec:
     - `name`: Gymnasium's id (`"CartPole-v1"`); `max_episode_steps`, `reward_threshold`: Gymnasium's.
     - `renderer`: the Gymnasium env class (`"module:Class"`) whose `render` draws the scene.
     - `attributes`: Gymnasium's attribute names on its env and the scene's path for each
-      (`("masspole", "dynamics.pole_mass")`; several paths joined by commas when Gymnasium's
-      one attribute is several parameters). The renderer reads them, and the Gymnasium
-      env has them as properties that users read and write.
+      (`("masspole", "dynamics.pole_mass")`; a name listed twice when Gymnasium's one
+      attribute is several parameters, as Acrobot's `LINK_MOI`). The renderer reads them,
+      and the Gymnasium env has them as properties that users read and write.
     - `reset_options`: how Gymnasium's `reset(options=...)` bounds the start: `"bounds"`
       (`low`/`high` for every drawn coordinate) or `"pendulum"` (`x_init`, `y_init`).
     - `float32_start`: Gymnasium's env stores its start in float32 (Acrobot).

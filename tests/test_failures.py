@@ -273,24 +273,24 @@ def _random_actions(env, key, shape):
 
 
 @eqx.filter_jit
-def _regular_rewards(env, key, num_starts=64, horizon=20):
-    """Rewards of steps from random starts under random actions, with whether each step was regular."""
+def _regular_rewards(env, key, num_states=256):
+    """Rewards of one step from random states under random actions, with whether each was regular."""
     low, high = env.initial_bounds
-    wide_key, start_key, action_key = jax.random.split(key, 3)
-    # Starts far from the usual ones (10 units each way of the usual start), made
-    # admissible by the scene's own projection, and the usual starts.
-    wide = (low + high) / 2 + jax.random.uniform(wide_key, (num_starts, low.size), minval=-10.0, maxval=10.0)
+    wide_key, start_key, action_key, step_key = jax.random.split(key, 4)
+    # States far from the usual starts (up to 10 units each way), made admissible by the
+    # scene's own projection, and the usual starts.
+    wide = (low + high) / 2 + jax.random.uniform(wide_key, (num_states, low.size), minval=-10.0, maxval=10.0)
     wide = jax.vmap(env.project)(wide)
-    usual = jax.vmap(lambda k: env.initial(key=k).y)(jax.random.split(start_key, num_starts))
-    starts = jnp.concatenate([wide, usual])
-    actions = _random_actions(env, action_key, (starts.shape[0], horizon))
+    usual = jax.vmap(lambda k: env.initial(key=k).y)(jax.random.split(start_key, num_states))
+    states = jnp.concatenate([wide, usual])
+    actions = _random_actions(env, action_key, (states.shape[0],))
 
-    def episode(y0, actions, key):
-        _, infos = ll.rollout(env, ll.EnvState(y=y0, steps=jnp.zeros((), dtype=int)), actions, key=key)
-        return infos["reward"], infos["solver_ok"] & infos["action_ok"]
+    def one(y, action, key):
+        state = ll.EnvState(y=y, steps=jnp.zeros((), dtype=int))
+        _, _, reward, _, info = env.advance(state, action, key=key)
+        return reward, info["solver_ok"] & info["action_ok"]
 
-    keys = jax.random.split(jax.random.fold_in(key, 1), starts.shape[0])
-    return jax.vmap(episode)(starts, actions, keys)
+    return jax.vmap(one)(states, actions, jax.random.split(step_key, states.shape[0]))
 
 
 @pytest.mark.parametrize("name, options", VARIANTS, ids=VARIANT_IDS)
@@ -323,6 +323,9 @@ def _overflowing(env, state):
 
 FAILURES = ("inadmissible action", "nan dynamics", "overflow")
 
+# One compilation per scene variant serves the three failures (same structure and shapes).
+_advance = eqx.filter_jit(lambda env, state, action: env.advance(state, action, key=jax.random.key(5)))
+
 
 @pytest.mark.parametrize("failure", FAILURES)
 @pytest.mark.parametrize("name, options", VARIANTS, ids=VARIANT_IDS)
@@ -339,8 +342,7 @@ def test_a_forced_failure_pays_at_most_the_worst_reward(name, options, failure):
     else:
         env, state = _overflowing(env, state)
     worst = float(env.worst_reward)
-    step = eqx.filter_jit(lambda env, state, action: env.advance(state, action, key=jax.random.key(5)))
-    next_state, observation, reward, terminated, info = step(env, state, action)
+    next_state, observation, reward, terminated, info = _advance(env, state, action)
     # The failure happened, and was reported.
     if failure == "inadmissible action":
         assert not bool(info["action_ok"])

@@ -89,18 +89,11 @@ class GymSpec:
         renderer.state = state
         for gymnasium_name, path in self.declared.attributes:
             if hasattr(renderer, gymnasium_name):
-                value = operator.attrgetter(attribute_paths(path)[0])(scene)
-                setattr(renderer, gymnasium_name, float(np.asarray(value)))
+                setattr(renderer, gymnasium_name, float(np.asarray(operator.attrgetter(path)(scene))))
         # Pendulum draws the clipped torque of the last step as an arrow (none after reset);
         # its renderer has no `last_u` before its own reset, which it never sees here, so
         # the attribute is set on every renderer (the others ignore it).
         renderer.last_u = None if action is None else float(np.asarray(scene.physical_input(action))[0])
-
-
-def attribute_paths(path: str) -> tuple[str, ...]:
-    """The scene paths of one of Gymnasium's attributes: `"a.b"`, or several `"a.b,a.c"`
-    when Gymnasium's one attribute sets several parameters (Acrobot's `LINK_MOI`)."""
-    return tuple(each.strip() for each in path.split(","))
 
 
 SPECS: dict[str, GymSpec] = {

@@ -29,7 +29,7 @@ from .._fields import as_parameter
 from ._compiled import float64
 from ._env import GymnasiumEnv
 from ._render import render_fps
-from ._specs import SPECS, GymSpec, attribute_paths
+from ._specs import SPECS, GymSpec
 from ._vector import GymnasiumVectorEnv
 
 
@@ -51,9 +51,7 @@ def _replace(scene, path: str, value, name: str):
     return eqx.tree_at(operator.attrgetter(path), scene, new)
 
 
-def _attribute(name: str, path: str) -> property:
-    paths = attribute_paths(path)
-
+def _attribute(name: str, paths: tuple[str, ...]) -> property:
     def get(self) -> float:
         with float64():
             return float(np.asarray(operator.attrgetter(paths[0])(self.scene)))
@@ -74,7 +72,10 @@ def _attribute(name: str, path: str) -> property:
 
 def _env_classes(spec: GymSpec) -> tuple[type, type]:
     name = spec.scene.__name__
-    attributes = {gymnasium_name: _attribute(gymnasium_name, path) for gymnasium_name, path in spec.declared.attributes}
+    paths: dict[str, tuple[str, ...]] = {}
+    for gymnasium_name, path in spec.declared.attributes:  # a name may map to several paths
+        paths[gymnasium_name] = (*paths.get(gymnasium_name, ()), path)
+    attributes = {gymnasium_name: _attribute(gymnasium_name, each) for gymnasium_name, each in paths.items()}
     doc = (
         f"`gymnasium.make({spec.id!r})`: `lerax_like.{name}` behind Gymnasium's `{spec.name}` "
         f"(see `GymnasiumEnv`), with Gymnasium's attributes {', '.join(attributes) or 'none'}."

@@ -75,7 +75,8 @@ class Acrobot(AbstractEnv):
             ("LINK_COM_POS_1", "dynamics.link_com_position_1"),
             ("LINK_COM_POS_2", "dynamics.link_com_position_2"),
             # Gymnasium's one moment of inertia is both links'.
-            ("LINK_MOI", "dynamics.link_moment_of_inertia_1,dynamics.link_moment_of_inertia_2"),
+            ("LINK_MOI", "dynamics.link_moment_of_inertia_1"),
+            ("LINK_MOI", "dynamics.link_moment_of_inertia_2"),
             ("MAX_VEL_1", "max_velocity_1"),
             ("MAX_VEL_2", "max_velocity_2"),
         ),
