@@ -143,29 +143,30 @@ def vector_stepper(env, num_steps):
 
 
 def vector_call_stepper(env, num_steps, *, floor: bool):
-    """Seconds for `num_steps` calls of the layer's jitted vector step (no restarts) plus
-    `np.asarray` of its results, without the layer's bookkeeping; with `floor`, of a bare
-    jitted call with the same inputs and outputs that computes nothing (the JAX floor)."""
+    """Seconds for `num_steps` calls of the layer's jitted vector step (no restarts:
+    `vector_advance`) plus `np.asarray` of its results, without the layer's bookkeeping;
+    with `floor`, of a bare jitted call with the same inputs and outputs that computes
+    nothing (the JAX floor)."""
     unwrapped = env.unwrapped if hasattr(env, "unwrapped") else env
     split = unwrapped._split
     env.reset(seed=0)
     y, steps, key = unwrapped._y, unwrapped._steps, unwrapped._jax_key
-    reset_mask, time_limit = unwrapped._no_reset, unwrapped._time_limit
+    time_limit, observation = unwrapped._time_limit, unwrapped._observation
     rng = np.random.default_rng(0)
     num_envs = env.num_envs
-    call = split.vector_step
+    call = split.vector_advance
     if floor:
-        with float64():
-            arguments = (split.parameters, y, steps, np.zeros(num_envs, dtype=np.int64), key, reset_mask, y, time_limit)
-            call = _bare(jax.eval_shape(split.vector_step, *arguments))
+        with split.precision():
+            arguments = (split.parameters, y, steps, np.zeros(num_envs, dtype=np.int64), key, time_limit, observation)
+            call = _bare(jax.eval_shape(split.vector_advance, *arguments))
             jax.block_until_ready(call(*arguments))
 
     def block():
         start = time.perf_counter()
-        with float64():
+        with split.precision():
             for _ in range(num_steps):
                 actions = rng.integers(0, 2, num_envs)
-                _, _, *outputs, _ = call(split.parameters, y, steps, actions, key, reset_mask, y, time_limit)
+                _, _, *outputs, _ = call(split.parameters, y, steps, actions, key, time_limit, observation)
                 _fetch(outputs)
         return time.perf_counter() - start
 
