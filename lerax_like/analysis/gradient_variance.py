@@ -836,7 +836,7 @@ def plot_gradient_variance(result: GradientVarianceResult, path=None):
     for (kind, sigma), (variance_axis, bias_axis, precision_axis) in zip(panels, axes):
         for s, solver in enumerate(config.solvers):
             style = styles[s % len(styles)]
-            for name in ESTIMATORS:
+            for name in reversed(ESTIMATORS):  # first order on top: alpha order often equals it
                 line = sorted((r for r in result.rows if r["solver"] == solver and r["policy"] == kind
                                and r["sigma"] == sigma and r["estimator"] == name), key=lambda r: r["horizon"])
                 h = [r["horizon"] for r in line]
