@@ -1,12 +1,22 @@
-"""Steps per second of the vector env against Gymnasium's own vector CartPole, in one run.
+"""Steps per second of the vector env against the XLA floor and against Gymnasium, in one run.
 
-    python benchmarks/gym_vector.py [--num-envs 1024 16384] [--steps 100] [--repeats 15]
+    python -m benchmarks gym_vector                 # all five ids, N = 1024 and 16384, float64 and float32
+    python -m benchmarks gym_vector --quick         # fewer steps and repeats, N = 1024
+    python -m benchmarks.gym_vector --ids CartPole-v1 --num-envs 1024 [--out DIR]
 
-Both envs step the same pre-drawn random actions (episodes end every ~20 steps, so the
-restart path is timed too). Each env is compiled/warmed first; the repeats alternate
-between the two envs, so that load on the machine hits both alike; the median is kept.
-Writes benchmarks/results/gym_vector.csv, one row per number of envs (1024 is the one the
-issue asks for; a larger one shows where the fixed cost per call stops mattering).
+For each registered id, number of envs N and dtype, three vector envs step the same
+pre-drawn random actions (sampled from the action space, seed 0; episodes end and restart
+as they would in training):
+- ours: `gymnasium.make_vec("lerax_like/<id>", N, vectorization_mode="vector_entry_point",
+  dtype=...)`, with its autoreset, info and checks;
+- the XLA floor: a minimal hand-written JAX step of the same physics at the same dtype
+  (`_floors.py`: Gymnasium's equations, no autoreset, no checks, results fetched to NumPy);
+- Gymnasium's peer (float64 only, it has no other): its vector CartPole for CartPole-v1,
+  `SyncVectorEnv` of `gymnasium.make(<id>)` for the four without a vector entry point.
+Each is warmed up first; blocks of `--steps` steps are interleaved over `--repeats` rounds,
+so that load on the shared machine hits all alike, and the fastest block is kept, by wall
+time and by process CPU time (the CPU time is the steadier on a loaded machine). The load
+average is recorded. Writes benchmarks/results/gym_vector.csv (results/quick/ with --quick).
 """
 
 import argparse
@@ -14,8 +24,6 @@ import csv
 import datetime
 import os
 import platform
-import statistics
-import sys
 import time
 from pathlib import Path
 
@@ -24,74 +32,112 @@ import jax
 import numpy as np
 
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-import lerax_like  # noqa: E402  (registers the lerax_like/ ids)
+import lerax_like  # noqa: F401  (registers the lerax_like/ ids)
+from benchmarks import results_dir
+from benchmarks._floors import FloorVectorEnv
+from lerax_like.gym import SPECS
 
 
-def make(env_id: str, num_envs: int):
-    return gymnasium.make_vec(env_id, num_envs=num_envs, vectorization_mode="vector_entry_point")
+NAMES = tuple(spec.name for spec in SPECS.values())
 
 
-def time_steps(env, actions) -> float:
-    start = time.perf_counter()
+def peer(name: str, num_envs: int):
+    """Gymnasium's fastest vector env of `name`: its own vector env if it has one, else `SyncVectorEnv`."""
+    if gymnasium.spec(name).vector_entry_point is not None:
+        return gymnasium.make_vec(name, num_envs=num_envs, vectorization_mode="vector_entry_point"), "vector_entry_point"
+    return gymnasium.make_vec(name, num_envs=num_envs, vectorization_mode="sync"), "SyncVectorEnv"
+
+
+def block(env, actions) -> tuple[float, float]:
+    """Wall and CPU seconds of `len(actions)` steps."""
+    wall, cpu = time.perf_counter(), time.process_time()
     for action in actions:
         env.step(action)
-    return time.perf_counter() - start
+    return time.perf_counter() - wall, time.process_time() - cpu
 
 
-def measure(num_envs: int, steps: int, repeats: int) -> dict:
-    rng = np.random.default_rng(0)
-    actions = rng.integers(0, 2, size=(steps, num_envs))
-    envs = {
-        "lerax_like/CartPole-v1": make("lerax_like/CartPole-v1", num_envs),
-        "CartPole-v1": make("CartPole-v1", num_envs),
-    }
+def measure(name: str, num_envs: int, dtype: str, steps: int, repeats: int, with_peer: bool) -> dict:
+    ours = gymnasium.make_vec(f"lerax_like/{name}", num_envs=num_envs, vectorization_mode="vector_entry_point", dtype=dtype)
+    ours.reset(seed=0)
+    ours.action_space.seed(0)
+    actions = [ours.action_space.sample() for _ in range(steps)]
+    envs = {"ours": ours, "floor": FloorVectorEnv(name, ours.unwrapped.state.T, dtype)}
+    peer_kind = ""
+    if with_peer:
+        envs["peer"], peer_kind = peer(name, num_envs)
+        envs["peer"].reset(seed=0)
     for env in envs.values():
-        env.reset(seed=0)
-        time_steps(env, actions[:20])  # warm-up (ours is compiled at construction)
-    times = {name: [] for name in envs}
+        block(env, actions[: min(10, steps)])  # warm-up
+    walls = {key: [] for key in envs}
+    cpus = {key: [] for key in envs}
     for _ in range(repeats):
-        for name, env in envs.items():
-            times[name].append(time_steps(env, actions))
-    rates = {name: num_envs * steps / statistics.median(t) for name, t in times.items()}
-    best = {name: num_envs * steps / min(t) for name, t in times.items()}
-    machine = f"{platform.machine()} {platform.system()}, {os.cpu_count()} cores"
-    return {
-        "date_utc": datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M"),
-        "machine": machine,
-        "load_average_1min": round(os.getloadavg()[0], 1),
-        "jax_backend": jax.default_backend(),
-        "jax": jax.__version__,
-        "gymnasium": gymnasium.__version__,
+        for key, env in envs.items():
+            wall, cpu = block(env, actions)
+            walls[key].append(wall)
+            cpus[key].append(cpu)
+    rate = {key: num_envs * steps / min(times) for key, times in walls.items()}
+    cpu_rate = {key: num_envs * steps / min(times) for key, times in cpus.items()}
+    for env in envs.values():
+        env.close()
+    row = {
+        "id": f"lerax_like/{name}",
         "num_envs": num_envs,
-        "steps_per_repeat": steps,
+        "dtype": dtype,
+        "ours_steps_per_s": round(rate["ours"]),
+        "floor_steps_per_s": round(rate["floor"]),
+        "ours_vs_floor": round(rate["ours"] / rate["floor"], 3),
+        "ours_vs_floor_cpu_time": round(cpu_rate["ours"] / cpu_rate["floor"], 3),
+        "peer": peer_kind,
+        "peer_steps_per_s": round(rate["peer"]) if with_peer else "",
+        "ours_vs_peer": round(rate["ours"] / rate["peer"], 3) if with_peer else "",
+        "floor_vs_peer": round(rate["floor"] / rate["peer"], 3) if with_peer else "",
+        "steps_per_block": steps,
         "repeats": repeats,
-        "lerax_like_steps_per_s_median": round(rates["lerax_like/CartPole-v1"]),
-        "gymnasium_steps_per_s_median": round(rates["CartPole-v1"]),
-        "ratio_median": round(rates["lerax_like/CartPole-v1"] / rates["CartPole-v1"], 3),
-        "lerax_like_steps_per_s_best": round(best["lerax_like/CartPole-v1"]),
-        "gymnasium_steps_per_s_best": round(best["CartPole-v1"]),
-        "ratio_best": round(best["lerax_like/CartPole-v1"] / best["CartPole-v1"], 3),
+        "load_average_1min": round(os.getloadavg()[0], 1),
     }
+    print(", ".join(f"{key}={value}" for key, value in row.items()), flush=True)
+    return row
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--num-envs", type=int, nargs="+", default=[1024, 16384])
-    parser.add_argument("--steps", type=int, default=100)
-    parser.add_argument("--repeats", type=int, default=15)
-    parser.add_argument("--output", default=str(Path(__file__).parent / "results" / "gym_vector.csv"))
-    args = parser.parse_args()
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--ids", nargs="+", default=list(NAMES), choices=NAMES, help="Gymnasium names")
+    parser.add_argument("--num-envs", type=int, nargs="+", default=None)
+    parser.add_argument("--dtypes", nargs="+", default=["float64", "float32"], choices=["float64", "float32"])
+    parser.add_argument("--steps", type=int, default=None, help="steps per timed block")
+    parser.add_argument("--repeats", type=int, default=None)
+    parser.add_argument("--no-peer", action="store_true", help="skip Gymnasium's envs")
+    parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--out", type=Path, default=None, help="folder (default: benchmarks/results[/quick])")
+    parser.add_argument("--output", type=Path, default=None, help="the CSV file (default: OUT/gym_vector.csv)")
+    args = parser.parse_args(argv)
+    num_envs = args.num_envs or ([1024] if args.quick else [1024, 16384])
+    repeats = args.repeats or (3 if args.quick else 9)
+    output = args.output or (args.out or results_dir(args.quick)) / "gym_vector.csv"
 
-    rows = [measure(num_envs, args.steps, args.repeats) for num_envs in args.num_envs]
-    output = Path(args.output)
+    header = {
+        "date_utc": datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M"),
+        "machine": f"{platform.machine()} {platform.system()}, {os.cpu_count()} cores",
+        "jax": jax.__version__,
+        "jax_backend": jax.default_backend(),
+        "gymnasium": gymnasium.__version__,
+    }
+    print(header, flush=True)
+    rows = []
+    for n in num_envs:
+        # Fewer steps per block for the large batches (a SyncVectorEnv step of 16384 envs
+        # takes a tenth of a second); enough that a block lasts milliseconds.
+        steps = args.steps or ((10 if args.quick else 30) if n <= 4096 else (5 if args.quick else 10))
+        for name in args.ids:
+            for dtype in args.dtypes:
+                with_peer = not args.no_peer and dtype == "float64"
+                rows.append({**header, **measure(name, n, dtype, steps, repeats, with_peer)})
     output.parent.mkdir(parents=True, exist_ok=True)
     with output.open("w", newline="") as file:
         writer = csv.DictWriter(file, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
-    for row in rows:
-        print(", ".join(f"{key}={value}" for key, value in row.items()))
+    print(f"wrote {output}")
 
 
 if __name__ == "__main__":

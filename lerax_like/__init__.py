@@ -13,15 +13,26 @@ from .integrate import (
     RK4 as RK4,
     SemiImplicitEuler as SemiImplicitEuler,
     SOLVER_PRESETS as SOLVER_PRESETS,
+    SOLVERS as SOLVERS,
+    SolverPreset as SolverPreset,
+    describe_solver as describe_solver,
     has_error_estimate as has_error_estimate,
     make_integrator as make_integrator,
+    register_solver as register_solver,
+    solver_from_spec as solver_from_spec,
+    unregister_solver as unregister_solver,
 )
 from .physics import (
+    AbstractChainDynamics as AbstractChainDynamics,
     AbstractConservativeDynamics as AbstractConservativeDynamics,
     AbstractDynamics as AbstractDynamics,
+    AbstractGeneralisedForce as AbstractGeneralisedForce,
     AcrobotDynamics as AcrobotDynamics,
     CartChainDynamics as CartChainDynamics,
     CartPoleDynamics as CartPoleDynamics,
+    EndStops as EndStops,
+    ForcedDynamics as ForcedDynamics,
+    JointDamping as JointDamping,
     MountainCarDynamics as MountainCarDynamics,
     NLinkPendulumDynamics as NLinkPendulumDynamics,
     PendulumDynamics as PendulumDynamics,
@@ -39,3 +50,6 @@ __version__ = "0.1.0"
 from . import gym as gym
 
 gym.register_envs()
+
+# Stable-Baselines3 vector envs (`lerax_like.sb3.make_vec_env`); SB3 is imported on first use.
+from . import sb3 as sb3

@@ -311,7 +311,7 @@ class AbstractEnv(eqx.Module):
         return state, self.observation(state, key=keys.observation), {}
 
     def advance(
-        self, state: EnvState, action: Array, *, key: Key | None, observation_dtype=None
+        self, state: EnvState, action: Array, *, key: Key | None, observation_dtype=None, observation_before=None
     ) -> tuple[EnvState, Array, Scalar, BoolScalar, dict[str, Array]]:
         """One step without time limit or reset: the step semantics, defined once.
 
@@ -342,6 +342,10 @@ class AbstractEnv(eqx.Module):
         reported in `info["action_ok"]` and fails as above (pre-step state, worst reward,
         terminated), never silently applied as another action. This costs no runtime
         check that could stop a hot loop, so there is no switch to turn it off.
+
+        `observation_before`, if given, is the observation of `state` (cast to
+        `observation_dtype`) that a failed step returns; a caller that has it, as the
+        Gymnasium layer has its previous result, spares the step observing `state` again.
         """
         action = self.action_space.check(action, "action")
         self.check_state(state)
@@ -363,7 +367,8 @@ class AbstractEnv(eqx.Module):
         ok = info["solver_ok"] & observation_ok & reward_ok
         applied = ok & action_ok
         next_state = EnvState(y=jnp.where(applied, next_state.y, state.y), steps=next_state.steps)
-        observation = jnp.where(applied, observation, observe(state))
+        previous = observe(state) if observation_before is None else observation_before
+        observation = jnp.where(applied, observation, previous)
         reward = jnp.where(applied, reward, jnp.asarray(self.worst_reward, reward.dtype))
         terminated = self.terminal(next_state, key=keys.terminal) | ~applied
         return next_state, observation, reward, terminated, {**info, "solver_ok": ok, "action_ok": action_ok}

@@ -26,7 +26,7 @@ def _run(env, y0, actions, key):
         next_state, observation, reward, terminated, truncated, info = env.step(state, action, key=step_key)
         # The raw solve from the pre-step state, outside the env's safety net.
         raw, _ = env.integrator.integrate(
-            env.dynamics.vector_field, state.y, env.physical_input(action), env.dt
+            env.physics.vector_field, state.y, env.physical_input(action), env.dt
         )
         record = dict(
             observation=observation, reward=reward, terminated=terminated, truncated=truncated,
@@ -70,6 +70,8 @@ def test_explicit_euler_divergence_is_flagged_and_ends_the_episode():
 class _NaNWindow(ll.AbstractDynamics):
     """Decays, except that the field is NaN for `0.25 <= t < 0.35`, then decays again."""
 
+    velocity_indices = None
+
     def vector_field(self, t, y, u):
         inside = (t >= 0.25) & (t < 0.35)
         return jnp.where(inside, jnp.nan, -y)
@@ -105,6 +107,8 @@ def test_budget_exhaustion_under_vmap_is_reported_per_env():
 
 
 class _Decay(ll.AbstractDynamics):
+    velocity_indices = None
+
     def vector_field(self, t, y, u):
         return -y + u
 

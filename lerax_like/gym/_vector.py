@@ -10,7 +10,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from . import _render
-from ._compiled import HoldsScene, build_scene, float64
+from ._compiled import HoldsScene, build_scene, check_dtype, float64
 from ._spaces import to_gymnasium_space
 from ._specs import GymSpec
 
@@ -19,7 +19,7 @@ class GymnasiumVectorEnv(HoldsScene, VectorEnv):
     """`num_envs` copies of a scene (what `gymnasium.make_vec("lerax_like/<id>", N,
     vectorization_mode="vector_entry_point")` builds).
 
-    One call of `step` is one compiled, batched step of all envs, integrated in float64.
+    One call of `step` is one compiled, batched step of all envs, integrated in `dtype`.
     It follows Gymnasium's next-step autoreset, as Gymnasium's vector CartPole does: the
     step after an episode ends (terminated, or truncated after `max_episode_steps`)
     restarts that env, returning its fresh observation, reward 0 and terminated and
@@ -28,9 +28,13 @@ class GymnasiumVectorEnv(HoldsScene, VectorEnv):
     draw of shape `(4, number of ended envs)` at a step that restarts some), and only at
     such steps; so for CartPole the same seed and actions give Gymnasium's numbers.
 
-    `state` is the float64 state in the layout of Gymnasium's vector CartPole
-    (`(n, num_envs)`), readable and writable. The info holds the per-env `solver_ok` and
-    `solver_steps`, with Gymnasium's `_name` masks. Rewards are float64.
+    `dtype` is the precision of the step: `"float64"` (the default) computes as Gymnasium
+    does, `"float32"` as JAX users run on accelerators (the parameters are cast once; the
+    starts are drawn as above, then rounded). Observations are float32 either way.
+
+    `state` is the state in the layout of Gymnasium's vector CartPole (`(n, num_envs)`,
+    of `dtype`), readable and writable. The info holds the per-env `solver_ok` and
+    `solver_steps`, with Gymnasium's `_name` masks. Rewards are of `dtype`.
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 50, "autoreset_mode": AutoresetMode.NEXT_STEP}
@@ -41,8 +45,10 @@ class GymnasiumVectorEnv(HoldsScene, VectorEnv):
         num_envs: int = 1,
         max_episode_steps: int | None = None,
         render_mode: str | None = None,
+        dtype: str = "float64",
         **scene_kwargs: Any,
     ):
+        self._dtype = check_dtype(dtype)
         if not isinstance(num_envs, int) or num_envs < 1:
             raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
         if max_episode_steps is not None and (not isinstance(max_episode_steps, int) or max_episode_steps < 1):
@@ -69,39 +75,54 @@ class GymnasiumVectorEnv(HoldsScene, VectorEnv):
         self._prev_done = np.zeros(num_envs, dtype=np.bool_)
         self._last_action: np.ndarray | None = None
         self._info_mask = np.ones(num_envs, dtype=np.bool_)
+        self._reset_y: np.ndarray | None = None
+        self._observation: jax.Array | None = None  # the last one returned, on the device
         self._warm_up()
 
     @property
+    def dtype(self) -> str:
+        """The precision of the step: `"float64"` or `"float32"`."""
+        return self._dtype
+
+    @property
     def state(self) -> np.ndarray | None:
-        """The states, float64, shape `(n, num_envs)` (Gymnasium's vector CartPole layout)."""
+        """The states, of `dtype`, shape `(n, num_envs)` (Gymnasium's vector CartPole layout)."""
         return None if self._y is None else np.array(self._y).T
 
     @state.setter
     def state(self, value) -> None:
-        value = np.asarray(value, dtype=np.float64)
+        value = np.asarray(value, dtype=self._dtype)
         expected = (self._initial_bounds[0].size, self.num_envs)
         if value.shape != expected:
             raise ValueError(f"state must have shape {expected} (state size, num_envs), got shape {value.shape}")
-        with float64():
+        with self._split.precision():
             self._y = jnp.asarray(value.T)
             if self._steps is None:
                 self._steps = jnp.zeros(self.num_envs, dtype=int)
+        self._observation = None  # of the old state: the next step observes the new one
 
     def _warm_up(self) -> None:
         # Compile the step and the observation now, not in the first step of training.
-        y = self._gym_spec.initial_state(self._initial_bounds, np.random.default_rng(0), None, self.num_envs).T
-        with float64():
+        y = self._starts(np.random.default_rng(0), None, self.num_envs)
+        self._reset_y = np.zeros_like(y)
+        with self._split.precision():
             self._no_reset = jnp.zeros(self.num_envs, dtype=bool)
-            self._time_limit = jnp.asarray(
-                np.iinfo(np.int64).max if self.max_episode_steps is None else self.max_episode_steps
-            )
-            y, steps = jnp.asarray(y), jnp.zeros(self.num_envs, dtype=int)
+            no_limit = np.iinfo(jnp.zeros((), dtype=int).dtype).max
+            self._time_limit = jnp.asarray(no_limit if self.max_episode_steps is None else self.max_episode_steps)
+            steps = jnp.zeros(self.num_envs, dtype=int)
             parameters, key = self._split.parameters, self._jax_key
             actions = self._actions(self._zero_actions())
-            jax.block_until_ready(self._split.vector_observe(parameters, y, steps, key))
+            observation, _ = self._split.vector_observe(parameters, y, steps, key)
+            arguments = (parameters, y, steps, actions, key)
+            jax.block_until_ready(self._split.vector_advance(*arguments, self._time_limit, observation))
             jax.block_until_ready(
-                self._split.vector_step(parameters, y, steps, actions, key, self._no_reset, y, self._time_limit)
+                self._split.vector_step(*arguments, self._no_reset, y, self._time_limit, observation)
             )
+
+    def _starts(self, np_random, options, count: int) -> np.ndarray:
+        """`count` starts drawn as Gymnasium draws them, shape `(count, n)`, of `dtype`."""
+        starts = self._gym_spec.initial_state(self._initial_bounds, np_random, options, count).T
+        return starts.astype(self._dtype, copy=False)
 
     def _zero_actions(self):
         if self._discrete:
@@ -122,7 +143,7 @@ class GymnasiumVectorEnv(HoldsScene, VectorEnv):
             )
             assert valid, f"{actions!r} ({type(actions)}) invalid"
             return array.astype(np.int64, copy=False)
-        array = np.asarray(actions, dtype=np.float64)
+        array = np.asarray(actions, dtype=self._dtype)
         shape = (self.num_envs, *self.single_action_space.shape)
         if array.size != np.prod(shape):
             raise ValueError(f"the actions must have shape {shape}, got an array of shape {array.shape}")
@@ -133,14 +154,14 @@ class GymnasiumVectorEnv(HoldsScene, VectorEnv):
         if seed is not None:
             self._jax_key = self._split.key(seed)
         self._options = options
-        y = self._gym_spec.initial_state(self._initial_bounds, self.np_random, options, self.num_envs).T
-        with float64():
+        y = self._starts(self.np_random, options, self.num_envs)
+        with self._split.precision():
             self._y = jnp.asarray(y)
             self._steps = jnp.zeros(self.num_envs, dtype=int)
-            observation, self._jax_key = self._split.vector_observe(
+            self._observation, self._jax_key = self._split.vector_observe(
                 self._split.parameters, self._y, self._steps, self._jax_key
             )
-            observation = np.array(observation)
+            observation = np.array(self._observation)
         self._prev_done = np.zeros(self.num_envs, dtype=np.bool_)
         self._last_action = None
         return observation, {}
@@ -148,34 +169,43 @@ class GymnasiumVectorEnv(HoldsScene, VectorEnv):
     def step(self, actions):
         actions = self._actions(actions)
         assert self._y is not None, "Call reset before using step method."
-        with float64():
+        split = self._split
+        with split.precision():
+            if self._observation is None:  # the state or the scene was assigned
+                self._observation, self._jax_key = split.vector_observe(
+                    split.parameters, self._y, self._steps, self._jax_key
+                )
             restarts = np.count_nonzero(self._prev_done)
             if restarts:
-                # Gymnasium's vector CartPole draws only when some env restarts, for those envs.
+                # Gymnasium's vector CartPole draws only when some env restarts, for those
+                # envs. The rows of the other envs in `_reset_y` are stale and unused.
                 reset_mask = self._prev_done
-                reset_y = np.zeros(self._y.shape)
-                reset_y[reset_mask] = self._gym_spec.initial_state(self._initial_bounds, self.np_random, self._options, restarts).T
+                self._reset_y[reset_mask] = self._starts(self.np_random, self._options, restarts)
+                outputs = split.vector_step(
+                    split.parameters, self._y, self._steps, actions, self._jax_key, reset_mask, self._reset_y,
+                    self._time_limit, self._observation,
+                )
             else:
-                reset_mask, reset_y = self._no_reset, self._y
-            self._y, self._steps, observation, outcome, self._jax_key = self._split.vector_step(
-                self._split.parameters, self._y, self._steps, actions, self._jax_key, reset_mask, reset_y,
-                self._time_limit,
-            )
-        # np.array (a writable copy), not jax.device_get: the latter costs far more for
-        # arrays this small.
-        observation, outcome = np.array(observation), np.array(outcome)
-        reward, terminated, truncated, solver_ok, solver_steps = outcome
-        terminated = terminated != 0
-        truncated = truncated != 0
+                # No restart: the step without the restart's selects and fresh observations.
+                outputs = split.vector_advance(
+                    split.parameters, self._y, self._steps, actions, self._jax_key, self._time_limit,
+                    self._observation,
+                )
+        self._y, self._steps, observation, outcome, self._jax_key = outputs
+        self._observation = observation
+        # np.array (a writable copy) of the observation, not jax.device_get: the latter
+        # costs far more for arrays this small. Every result below is a new array.
+        observation, outcome = np.array(observation), np.asarray(outcome)
+        terminated, truncated, solver_ok = outcome[1:4] != 0
         self._prev_done = terminated | truncated
         self._last_action = actions
         info = {
-            "solver_ok": solver_ok != 0,
+            "solver_ok": solver_ok,
             "_solver_ok": self._info_mask.copy(),
-            "solver_steps": solver_steps.astype(np.int64),
+            "solver_steps": outcome[4].astype(np.int64),
             "_solver_steps": self._info_mask.copy(),
         }
-        return observation, reward, terminated, truncated, info
+        return observation, outcome[0].copy(), terminated, truncated, info
 
     def render(self):
         if self.render_mode is None:

@@ -1,0 +1,76 @@
+"""Stable-Baselines3 vector envs over the compiled, batched step (optional: `pip install "lerax_like[sb3]"`).
+
+`make_vec_env("lerax_like/CartPole-v1", n_envs=8, seed=0)` stands in for SB3's own
+`make_vec_env("CartPole-v1", n_envs=8, seed=0)`: an SB3 `VecEnv` with SB3's semantics,
+whose step is one compiled call for all envs instead of `DummyVecEnv`'s loop over single
+envs. Importing this module does not import SB3; calling into it does.
+"""
+
+from typing import Any
+
+
+def _sb3():
+    try:
+        from . import _vec_env
+    except ImportError as error:
+        if error.name is not None and error.name.split(".")[0] in ("stable_baselines3", "torch"):
+            raise ImportError(
+                "lerax_like.sb3 needs Stable-Baselines3: pip install \"lerax_like[sb3]\" (for a CPU-only "
+                "PyTorch, install torch from https://download.pytorch.org/whl/cpu first)"
+            ) from error
+        raise
+    return _vec_env
+
+
+def make_vec_env(
+    env_id: str,
+    n_envs: int = 1,
+    seed: int | None = None,
+    start_index: int = 0,
+    monitor_dir: str | None = None,
+    wrapper_class=None,
+    env_kwargs: dict[str, Any] | None = None,
+    vec_env_cls=None,
+    vec_env_kwargs: dict[str, Any] | None = None,
+    monitor_kwargs: dict[str, Any] | None = None,
+    wrapper_kwargs: dict[str, Any] | None = None,
+    dtype: str = "float64",
+):
+    """A monitored SB3 `VecEnv` of `n_envs` copies of the registered id `env_id`, stepped together.
+
+    Mirrors `stable_baselines3.common.env_util.make_vec_env`: the same arguments, seeds
+    (`seed + i` for env `i` at the first reset, the action space seeded with
+    `seed + start_index`), `env_kwargs` as `gymnasium.make` takes them (scene keywords,
+    `max_episode_steps`, `render_mode`, which defaults to `"rgb_array"` as in SB3), and
+    episode statistics in the infos (`VecMonitor`, writing to `monitor_dir` if given;
+    `monitor_kwargs` may hold `info_keywords`). The result steps as SB3's `DummyVecEnv` of
+    `gymnasium.make(env_id)` envs (see `CompiledVecEnv`). `dtype` is the precision of the
+    step (`"float64"`, Gymnasium's, or `"float32"`).
+
+    Not supported, as they act on single envs: `wrapper_class`/`wrapper_kwargs` (wrap the
+    result in an SB3 `VecEnvWrapper` instead) and `vec_env_cls`/`vec_env_kwargs` (the
+    batch is the vector env).
+    """
+    return _sb3().make_vec_env(
+        env_id,
+        n_envs=n_envs,
+        seed=seed,
+        start_index=start_index,
+        monitor_dir=monitor_dir,
+        wrapper_class=wrapper_class,
+        env_kwargs=env_kwargs,
+        vec_env_cls=vec_env_cls,
+        vec_env_kwargs=vec_env_kwargs,
+        monitor_kwargs=monitor_kwargs,
+        wrapper_kwargs=wrapper_kwargs,
+        dtype=dtype,
+    )
+
+
+def __getattr__(name: str):
+    if name == "CompiledVecEnv":
+        return _sb3().CompiledVecEnv
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+__all__ = ["CompiledVecEnv", "make_vec_env"]

@@ -1,0 +1,71 @@
+"""The vector env's dtype option and its failed steps, against the single env and float64.
+
+The single env (`gymnasium.make`) steps through `AbstractEnv.advance` on its own, with no
+observation carried over; the vector env passes the observation it returned last. A
+failed step must come out the same either way.
+"""
+
+import gymnasium
+import numpy as np
+import pytest
+
+import lerax_like  # noqa: F401  (registers the ids)
+from lerax_like.gym import SPECS
+
+
+ALL_IDS = tuple(SPECS)
+
+
+def _vector(env_id, num_envs, **kwargs):
+    return gymnasium.make_vec(env_id, num_envs=num_envs, vectorization_mode="vector_entry_point", **kwargs)
+
+
+@pytest.mark.parametrize("assign_first", [False, True])
+def test_a_failed_vector_step_returns_what_the_single_env_returns(assign_first):
+    # theta_dot = 3e38 fits float32, but the step's next one does not: the observation
+    # overflows, so the step fails and returns the pre-step observation.
+    states = np.array([[0.01, 0.0, 0.02, 0.0], [0.0, 0.0, 0.01, 3e38], [-0.02, 0.1, 0.0, -0.1]]).T
+    vector = _vector("lerax_like/CartPole-v1", 3)
+    vector.reset(seed=0)
+    if not assign_first:
+        vector.step(np.array([0, 1, 0]))  # a step first: the carried observation is then a step's
+    vector.unwrapped.state = states
+    actions = np.array([1, 0, 1])
+    observation, reward, terminated, truncated, info = vector.step(actions)
+    for index in range(3):
+        single = gymnasium.make("lerax_like/CartPole-v1").unwrapped
+        single.reset(seed=0)
+        single.state = states[:, index]
+        ref_observation, ref_reward, ref_terminated, _, ref_info = single.step(int(actions[index]))
+        np.testing.assert_array_equal(observation[index], ref_observation)
+        assert reward[index] == ref_reward and terminated[index] == ref_terminated
+        assert info["solver_ok"][index] == ref_info["solver_ok"]
+    assert list(info["solver_ok"]) == [True, False, True]
+    np.testing.assert_array_equal(observation[1], states[:, 1].astype(np.float32))  # the pre-step state's
+
+
+@pytest.mark.parametrize("env_id", ALL_IDS)
+def test_float32_vector_env_follows_float64(env_id):
+    num_envs = 4
+    ours64 = _vector(env_id, num_envs, max_episode_steps=1000)
+    ours32 = _vector(env_id, num_envs, max_episode_steps=1000, dtype="float32")
+    assert ours32.unwrapped.dtype == "float32" and ours64.unwrapped.dtype == "float64"
+    first64, _ = ours64.reset(seed=3)
+    first32, _ = ours32.reset(seed=3)
+    # The same float64 draws, rounded to float32: the observations agree to float32 precision.
+    np.testing.assert_allclose(first32, first64, rtol=2**-22, atol=1e-6)
+    assert ours32.unwrapped.state.dtype == np.float32 and ours64.unwrapped.state.dtype == np.float64
+    ours64.action_space.seed(0)
+    for _ in range(3):
+        actions = ours64.action_space.sample()
+        observation64, reward64, *_ = ours64.step(actions)
+        observation32, reward32, *_ = ours32.step(actions)
+        assert observation32.dtype == np.float32 and reward32.dtype == np.float32
+        assert reward64.dtype == np.float64
+        np.testing.assert_allclose(observation32, observation64, rtol=1e-4, atol=1e-5)
+        np.testing.assert_allclose(reward32, reward64, rtol=1e-4, atol=1e-5)
+
+
+def test_bad_dtype_is_refused_by_name():
+    with pytest.raises(ValueError, match="dtype must be one of"):
+        _vector("lerax_like/CartPole-v1", 2, dtype="float16")

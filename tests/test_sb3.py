@@ -1,0 +1,171 @@
+"""`lerax_like.sb3`: SB3's vector env API and semantics, against SB3's own `DummyVecEnv`.
+
+The reference is SB3's `make_vec_env` (a `DummyVecEnv` of monitored `gymnasium.make`
+envs), run alongside on the same seeds and actions: for CartPole over Gymnasium's own
+env (equal observations, bit for bit), for every id over `lerax_like`'s single env.
+"""
+
+import os
+import sys
+
+import gymnasium
+import numpy as np
+import pytest
+
+import lerax_like
+from lerax_like.gym import SPECS
+
+
+sb3 = pytest.importorskip("stable_baselines3")
+from stable_baselines3.common.env_checker import check_env  # noqa: E402
+from stable_baselines3.common.env_util import make_vec_env as sb3_make_vec_env  # noqa: E402
+from stable_baselines3.common.vec_env import VecEnv  # noqa: E402
+
+
+os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
+ALL_IDS = tuple(SPECS)
+
+
+def _balance(observations, rng):
+    """CartPole actions that mostly balance, with random pushes: falls and time limits both occur."""
+    x, x_dot, theta, theta_dot = np.asarray(observations, dtype=np.float64).T
+    balance = (theta + 0.5 * theta_dot + 0.01 * x + 0.05 * x_dot > 0).astype(np.int64)
+    return np.where(rng.random(balance.size) < 0.6, rng.integers(0, 2, balance.size), balance)
+
+
+@pytest.mark.parametrize("env_id", ALL_IDS)
+def test_sb3_check_env_passes_on_the_single_env(env_id):
+    env = gymnasium.make(env_id)
+    with np.errstate(all="ignore"):
+        check_env(env, warn=True, skip_render_check=True)
+    env.close()
+
+
+def test_same_step_autoreset_matches_dummy_vec_env_on_gymnasium_cartpole():
+    num_envs, steps = 6, 400
+    kwargs = {"max_episode_steps": 60}
+    ours = lerax_like.sb3.make_vec_env("lerax_like/CartPole-v1", n_envs=num_envs, seed=11, env_kwargs=kwargs)
+    reference = sb3_make_vec_env("CartPole-v1", n_envs=num_envs, seed=11, env_kwargs=kwargs)
+    assert isinstance(ours, VecEnv) and ours.num_envs == num_envs
+    assert ours.observation_space == reference.observation_space
+    assert ours.action_space == reference.action_space
+    observation, ref_observation = ours.reset(), reference.reset()
+    np.testing.assert_array_equal(observation, ref_observation)
+    rng = np.random.default_rng(0)
+    counts = {"terminated": 0, "truncated": 0}
+    for step in range(steps):
+        actions = _balance(ref_observation, rng)
+        observation, reward, done, infos = ours.step(actions)
+        ref_observation, ref_reward, ref_done, ref_infos = reference.step(actions)
+        context = f"step {step}"
+        # Exact: the same float64 Euler step, and starts from the same generators.
+        np.testing.assert_array_equal(observation, ref_observation, err_msg=context)
+        np.testing.assert_array_equal(reward, ref_reward, err_msg=context)
+        np.testing.assert_array_equal(done, ref_done, err_msg=context)
+        assert observation.dtype == ref_observation.dtype and reward.dtype == ref_reward.dtype
+        assert done.dtype == ref_done.dtype
+        for index in range(num_envs):
+            info, ref_info = infos[index], ref_infos[index]
+            assert info["TimeLimit.truncated"] == ref_info["TimeLimit.truncated"], context
+            assert ("terminal_observation" in info) == ("terminal_observation" in ref_info) == done[index], context
+            if done[index]:
+                np.testing.assert_array_equal(info["terminal_observation"], ref_info["terminal_observation"])
+                # The returned observation is the next episode's first (same-step autoreset).
+                assert not np.array_equal(observation[index], info["terminal_observation"])
+                assert info["episode"]["r"] == ref_info["episode"]["r"], context
+                assert info["episode"]["l"] == ref_info["episode"]["l"], context
+                counts["truncated" if info["TimeLimit.truncated"] else "terminated"] += 1
+            assert info["solver_ok"]
+    assert counts["terminated"] > 10 and counts["truncated"] > 10, counts  # both ends, and their restarts
+
+
+@pytest.mark.parametrize("env_id", ALL_IDS)
+def test_every_id_steps_as_dummy_vec_env_of_its_single_env(env_id):
+    # SB3's make_vec_env over `gymnasium.make("lerax_like/<id>")`: our single env, one by one.
+    num_envs, steps = 3, 40
+    kwargs = {"max_episode_steps": 15}
+    ours = lerax_like.sb3.make_vec_env(env_id, n_envs=num_envs, seed=5, env_kwargs=kwargs)
+    reference = sb3_make_vec_env(env_id, n_envs=num_envs, seed=5, env_kwargs=kwargs)
+    np.testing.assert_array_equal(ours.reset(), reference.reset())  # the same starts
+    reference.action_space.seed(0)
+    ends = 0
+    for step in range(steps):
+        actions = np.stack([reference.action_space.sample() for _ in range(num_envs)])
+        observation, reward, done, infos = ours.step(actions)
+        ref_observation, ref_reward, ref_done, ref_infos = reference.step(actions)
+        context = f"{env_id} step {step}"
+        # The batched and the single compiled step may round differently (XLA vectorises
+        # the batch): float32 observations agree to a few of their ulps.
+        np.testing.assert_allclose(observation, ref_observation, rtol=4 * 2**-23, atol=1e-6, err_msg=context)
+        np.testing.assert_allclose(reward, ref_reward, rtol=1e-6, atol=1e-6, err_msg=context)
+        np.testing.assert_array_equal(done, ref_done, err_msg=context)
+        for info, ref_info in zip(infos, ref_infos):
+            assert info["TimeLimit.truncated"] == ref_info["TimeLimit.truncated"], context
+            assert info["solver_steps"] == ref_info["solver_steps"] and info["solver_ok"] == ref_info["solver_ok"]
+            if "terminal_observation" in ref_info:
+                np.testing.assert_allclose(
+                    info["terminal_observation"], ref_info["terminal_observation"], rtol=4 * 2**-23, atol=1e-6
+                )
+        ends += int(done.sum())
+    assert ends >= num_envs * 2  # every env restarted (time limit 15, 40 steps)
+
+
+def test_vec_env_attributes_seeds_and_bad_arguments():
+    venv = lerax_like.sb3.make_vec_env("lerax_like/CartPole-v1", n_envs=4, seed=0)
+    assert venv.get_attr("render_mode") == ["rgb_array"] * 4
+    assert venv.env_is_wrapped(gymnasium.Wrapper) == [False] * 4
+    first = venv.reset()
+    venv.seed(0)
+    np.testing.assert_array_equal(venv.reset(), first)  # the same seeds, the same starts
+    assert not np.array_equal(venv.reset(), first)  # no seed: the generators go on
+    images = venv.get_images()
+    assert len(images) == 4 and images[0].dtype == np.uint8
+    # Parameters change for all envs at once, never for some.
+    heavy = lerax_like.CartPole(pole_mass=0.5)
+    venv.set_attr("scene", heavy)
+    assert venv.get_attr("scene")[0] is heavy
+    with pytest.raises(ValueError, match="all 4 envs"):
+        venv.set_attr("scene", heavy, indices=[0])
+    with pytest.raises(ValueError, match="env_id must be one of"):
+        lerax_like.sb3.make_vec_env("CartPole-v1", n_envs=2)
+    with pytest.raises(ValueError, match="wrapper_class"):
+        lerax_like.sb3.make_vec_env("lerax_like/CartPole-v1", n_envs=2, wrapper_class=gymnasium.Wrapper)
+    with pytest.raises(ValueError, match="n_envs"):
+        lerax_like.sb3.make_vec_env("lerax_like/CartPole-v1", n_envs=0)
+    with pytest.raises(ValueError, match="dtype must be one of"):
+        lerax_like.sb3.make_vec_env("lerax_like/CartPole-v1", n_envs=2, dtype="float16")
+
+
+def test_float32_vec_env_follows_float64_to_float32_precision():
+    kwargs = {"max_episode_steps": 1000}
+    ours32 = lerax_like.sb3.make_vec_env("lerax_like/Pendulum-v1", n_envs=4, seed=1, env_kwargs=kwargs, dtype="float32")
+    ours64 = lerax_like.sb3.make_vec_env("lerax_like/Pendulum-v1", n_envs=4, seed=1, env_kwargs=kwargs)
+    # The starts are drawn in float64 and rounded: cos and sin of them agree to float32 precision.
+    np.testing.assert_allclose(ours32.reset(), ours64.reset(), rtol=2**-23, atol=1e-6)
+    for _ in range(5):  # a few steps stay close
+        actions = np.array([[-2.0], [-0.5], [0.5], [2.0]], dtype=np.float32)
+        observation32 = ours32.step(actions)[0]
+        observation64 = ours64.step(actions)[0]
+        np.testing.assert_allclose(observation32, observation64, rtol=1e-4, atol=1e-5)
+    assert ours32.get_attr("state")[0].dtype == np.float32
+    assert ours64.get_attr("state")[0].dtype == np.float64
+
+
+@pytest.mark.slow
+def test_ppo_trains_on_it():
+    from stable_baselines3 import PPO
+
+    venv = lerax_like.sb3.make_vec_env("lerax_like/CartPole-v1", n_envs=2, seed=0)
+    model = PPO("MlpPolicy", venv, n_steps=32, batch_size=32, n_epochs=1, seed=0, device="cpu")
+    model.learn(total_timesteps=128)
+    assert model.num_timesteps == 128
+    assert len(model.ep_info_buffer) > 0  # the episodes' statistics reach SB3 (VecMonitor)
+
+
+def test_missing_sb3_gets_an_install_hint(monkeypatch):
+    for name in [name for name in sys.modules if name.split(".")[0] == "stable_baselines3"]:
+        monkeypatch.setitem(sys.modules, name, None)  # makes `import stable_baselines3...` fail
+    monkeypatch.delitem(sys.modules, "lerax_like.sb3._vec_env", raising=False)
+    monkeypatch.delattr(lerax_like.sb3, "_vec_env", raising=False)
+    with pytest.raises(ImportError, match=r"lerax_like\[sb3\]"):
+        lerax_like.sb3.make_vec_env("lerax_like/CartPole-v1", n_envs=2)
