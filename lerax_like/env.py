@@ -279,7 +279,8 @@ class AbstractEnv(eqx.Module):
         """Refuse, by name, a state whose shape does not fit the scene (at trace time)."""
         if not isinstance(state, EnvState):
             raise TypeError(f"state must be an EnvState (from reset or step), got {type(state).__name__}")
-        expected = jnp.shape(self.initial_bounds[0])
+        # The shape of a start: traced, never run (a scene may override `initial`).
+        expected = jax.eval_shape(lambda key: self.initial(key=key).y, jr.key(0)).shape
         if jnp.shape(state.y) != expected:
             raise ValueError(
                 f"state.y must have shape {expected} (the state of {type(self).__name__}), "

@@ -134,10 +134,11 @@ class HoldsScene:
     def __setstate__(self, state: dict[str, Any]) -> None:
         with float64():
             state = jax.tree.map(_to_device, state, is_leaf=lambda x: isinstance(x, _HostArray))
-        scene, key = state.pop("_scene"), state.pop("_jax_key")
+        scene = state.pop("_scene")
         self.__dict__.update(state, _renderer=None)
         self.scene = scene
-        self._jax_key = key
+        # What assigning a scene restarts (the key, a vector env's last observation) as it was.
+        self.__dict__.update(state)
 
 
 class _HostArray:
