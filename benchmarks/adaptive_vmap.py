@@ -15,29 +15,26 @@ Rows (one run, repeats interleaved):
 - RK4 fixed step, one hard among N: the same mixed batch with a fixed-step solver
   (remedy: a fixed step where accuracy allows), whose cost does not depend on the mix.
 
-    python benchmarks/adaptive_vmap.py             # N=1024, T=200
-    python benchmarks/adaptive_vmap.py --envs 256 --steps 100
+    python -m benchmarks adaptive_vmap             # N=1024, T=200
+    python -m benchmarks adaptive_vmap --quick     # N=64, T=20, 2 repeats
+    python -m benchmarks.adaptive_vmap --envs 256 --steps 100 --out DIR
 
-Writes benchmarks/results/adaptive_vmap.csv.
+Writes adaptive_vmap.csv into benchmarks/results/ (results/quick/ with --quick).
 """
 
 import argparse
 import csv
 import os
 import pathlib
-import sys
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import jax.random as jr
 
-HERE = pathlib.Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parent))
-sys.path.insert(0, str(HERE))
-
-import lerax_like  # noqa: E402
-from _workload import interleaved, summary  # noqa: E402
+import lerax_like
+from benchmarks import results_dir
+from benchmarks._workload import interleaved, summary
 
 
 EASY, HARD = 0.5, 0.005
@@ -71,13 +68,18 @@ def program(envs, num_steps):
     return run
 
 
-def main():
+def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--envs", type=int, default=1024)
-    parser.add_argument("--steps", type=int, default=200)
-    parser.add_argument("--repeats", type=int, default=5)
-    parser.add_argument("--out", type=pathlib.Path, default=HERE / "results")
-    args = parser.parse_args()
+    parser.add_argument("--quick", action="store_true", help="N=64, T=20, 2 repeats")
+    parser.add_argument("--envs", type=int, default=None)
+    parser.add_argument("--steps", type=int, default=None)
+    parser.add_argument("--repeats", type=int, default=None)
+    parser.add_argument("--out", type=pathlib.Path, default=None, help="default: benchmarks/results[/quick]")
+    args = parser.parse_args(argv)
+    args.envs = args.envs or (64 if args.quick else 1024)
+    args.steps = args.steps or (20 if args.quick else 200)
+    args.repeats = args.repeats or (2 if args.quick else 5)
+    out = args.out or results_dir(args.quick)
     n = args.envs
     keys = jr.split(jr.key(0), n)
 
@@ -112,8 +114,8 @@ def main():
         rows.append([name, f"{seconds:.5f}", f"{seconds / reference:.3f}", f"{mean_steps:.3f}", f"{paid_steps:.3f}"])
         print(f"{name:36s} {seconds * 1e3:9.1f} ms  x{seconds / reference:6.2f} all-easy  "
               f"solver steps per env step: mean {mean_steps:5.2f}, loop iterations {paid_steps:5.2f}")
-    args.out.mkdir(parents=True, exist_ok=True)
-    with open(args.out / "adaptive_vmap.csv", "w", newline="") as file:
+    out.mkdir(parents=True, exist_ok=True)
+    with open(out / "adaptive_vmap.csv", "w", newline="") as file:
         writer = csv.writer(file)
         writer.writerow(["batch", "min_s", "time_vs_all_easy", "mean_solver_steps", "max_over_batch_solver_steps"])
         writer.writerows(rows)

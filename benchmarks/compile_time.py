@@ -8,33 +8,31 @@ Reported: trace + lowering and XLA compilation, in wall-clock seconds and in CPU
 this process (less sensitive to other processes on a shared machine; compilation is
 mostly single-threaded), minimum over fresh repeats.
 
-    python benchmarks/compile_time.py
-    python benchmarks/compile_time.py --repeats 1 --solvers euler rk4
+    python -m benchmarks compile_time
+    python -m benchmarks compile_time --quick     # Euler only, 100 steps, N=64, one compile
+    python -m benchmarks.compile_time --repeats 1 --solvers euler rk4 --out DIR
 
-Writes benchmarks/results/compile_time.csv.
+Writes compile_time.csv into benchmarks/results/ (results/quick/ with --quick).
 """
 
 import argparse
 import csv
 import os
 import pathlib
-import sys
 import time
 
 import jax
 import jax.numpy as jnp
 import jax.random as jr
 
-HERE = pathlib.Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parent))
-sys.path.insert(0, str(HERE))
-
-import lerax_like  # noqa: E402
-from _workload import batched, gymnax_program, scanned  # noqa: E402
-from throughput import lerax_program  # noqa: E402
+import lerax_like
+from benchmarks import results_dir
+from benchmarks._workload import batched, gymnax_program, scanned
+from benchmarks.throughput import lerax_program
 
 
 NUM_STEPS = 1000
+NUM_ENVS = 1024
 
 
 def measure(make_jitted, args) -> dict[str, float]:
@@ -54,7 +52,7 @@ def measure(make_jitted, args) -> dict[str, float]:
     }
 
 
-def rollout_program(solver):
+def rollout_program(solver, num_steps=NUM_STEPS):
     def make():
         env = lerax_like.CartPoleContinuous(solver=solver)
 
@@ -65,33 +63,41 @@ def rollout_program(solver):
 
         return run
 
-    return make, (jnp.zeros(4), jnp.zeros((NUM_STEPS, 1)), jr.key(0))
+    return make, (jnp.zeros(4), jnp.zeros((num_steps, 1)), jr.key(0))
 
 
-def step_program(make_step):
+def step_program(make_step, num_steps=NUM_STEPS, num_envs=NUM_ENVS):
     def make():
         step, initial = make_step()
-        return batched(scanned(step, initial, NUM_STEPS), 1024)
+        return batched(scanned(step, initial, num_steps), num_envs)
 
     return make, (jr.key(0),)
 
 
-def main():
+def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--solvers", nargs="+", default=["euler", "rk4", "tsit5"])
-    parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--out", type=pathlib.Path, default=HERE / "results")
-    args = parser.parse_args()
+    parser.add_argument("--quick", action="store_true", help="Euler and gymnax only, 100 steps, N=64, one compile")
+    parser.add_argument("--solvers", nargs="+", default=None)
+    parser.add_argument("--repeats", type=int, default=None)
+    parser.add_argument("--out", type=pathlib.Path, default=None, help="default: benchmarks/results[/quick]")
+    args = parser.parse_args(argv)
+    solvers = args.solvers or (["euler"] if args.quick else ["euler", "rk4", "tsit5"])
+    repeats = args.repeats or (1 if args.quick else 3)
+    num_steps, num_envs = (100, 64) if args.quick else (NUM_STEPS, NUM_ENVS)
+    out = args.out or results_dir(args.quick)
 
     programs = {}
-    for solver in args.solvers:
-        programs[(f"lerax_like {solver}", "rollout")] = rollout_program(solver)
-        programs[(f"lerax_like {solver}", "step")] = step_program(lambda solver=solver: lerax_program(solver))
-    programs[("gymnax", "step")] = step_program(gymnax_program)
+    for solver in solvers:
+        programs[(f"lerax_like {solver}", "rollout")] = rollout_program(solver, num_steps)
+        programs[(f"lerax_like {solver}", "step")] = step_program(
+            lambda solver=solver: lerax_program(solver), num_steps, num_envs
+        )
+    programs[("gymnax", "step")] = step_program(gymnax_program, num_steps, num_envs)
 
-    print(f"{NUM_STEPS}-step scanned programs, min of {args.repeats} fresh compiles, load average {os.getloadavg()}")
+    print(f"{num_steps}-step scanned programs (step: N={num_envs}), min of {repeats} fresh compiles, "
+          f"load average {os.getloadavg()}")
     results = {name: [] for name in programs}
-    for _ in range(args.repeats):
+    for _ in range(repeats):
         for name, (make, inputs) in programs.items():
             results[name].append(measure(make, inputs))
     rows = []
@@ -100,8 +106,8 @@ def main():
         rows.append({"implementation": implementation, "program": kind, **best})
         print(f"{implementation:18s} {kind:8s} lower {best['lower_wall_s']:6.2f} s  compile {best['compile_wall_s']:6.2f} s  "
               f"total {best['total_wall_s']:6.2f} s wall, {best['total_cpu_s']:6.2f} s CPU")
-    args.out.mkdir(parents=True, exist_ok=True)
-    with open(args.out / "compile_time.csv", "w", newline="") as file:
+    out.mkdir(parents=True, exist_ok=True)
+    with open(out / "compile_time.csv", "w", newline="") as file:
         writer = csv.DictWriter(file, fieldnames=list(rows[0]))
         writer.writeheader()
         for row in rows:

@@ -6,20 +6,21 @@ cart-pole. Reference: Dopri8 at rtol 1e-12. Also: the sign of d theta(t) / d hal
 under Euler at dt = 0.02 (Gymnasium's integrator) against the reference, along 5 s.
 The same study as `lerax-like gradients CartPoleContinuous`, with this loss and swing.
 
-    python benchmarks/gradient_error.py   # writes benchmarks/results/gradient_error.{csv,json,png}
+    python -m benchmarks gradient_error            # writes benchmarks/results/gradient_error.{csv,json,png}
+    python -m benchmarks gradient_error --quick    # the quick study's sweeps, into results/quick/
 """
 
+import argparse
 import json
 import pathlib
-import sys
 
 import jax
 import jax.numpy as jnp
 
 jax.config.update("jax_enable_x64", True)
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
 
-import lerax_like as ll  # noqa: E402
+import lerax_like as ll  # noqa: E402  (after float64 is on)
+from benchmarks import results_dir  # noqa: E402
 from lerax_like.analysis.gradient_accuracy import (  # noqa: E402
     GradientStudyConfig,
     run_gradient_study,
@@ -27,7 +28,6 @@ from lerax_like.analysis.gradient_accuracy import (  # noqa: E402
 )
 from lerax_like.analysis.report import format_gradient_table, write_gradient_study  # noqa: E402
 
-RESULTS = pathlib.Path(__file__).parent / "results"
 STEPS = 100
 Y0 = jnp.array([0.0, 0.0, 0.5, 0.0])
 
@@ -42,9 +42,16 @@ def sum_cos_theta(ys):
     return jnp.sum(jnp.cos(ys[:, 2]))
 
 
-def main():
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="the quick study's sweeps and repeats")
+    parser.add_argument("--out", type=pathlib.Path, default=None, help="default: benchmarks/results[/quick]")
+    arguments = parser.parse_args(argv)
+    out = arguments.out or results_dir(arguments.quick)
+    out.mkdir(parents=True, exist_ok=True)
     config = GradientStudyConfig.default(
         "CartPoleContinuous",
+        quick=arguments.quick,
         horizon=STEPS,
         initial_state=Y0,
         actions=swing(STEPS),
@@ -69,7 +76,7 @@ def main():
     }
     print(json.dumps(summary, indent=1))
     paths = write_gradient_study(
-        result, RESULTS, stem="gradient_error", signs=signs, jax=jax.__version__, backend=jax.default_backend()
+        result, out, stem="gradient_error", signs=signs, jax=jax.__version__, backend=jax.default_backend()
     )
     print("wrote " + ", ".join(paths.values()))
 

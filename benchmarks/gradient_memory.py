@@ -11,12 +11,13 @@ Memory is XLA's own accounting of the compiled gradient (`memory_analysis()`: te
 buffers, i.e. the peak working set beyond inputs and outputs); time is the median of 5
 runs after compilation.
 
-    python benchmarks/gradient_memory.py   # writes benchmarks/results/gradient_memory.json
+    python -m benchmarks gradient_memory            # writes benchmarks/results/gradient_memory.json
+    python -m benchmarks gradient_memory --quick    # 120 steps, 8 envs, into results/quick/
 """
 
+import argparse
 import json
 import pathlib
-import sys
 import time
 
 import equinox as eqx
@@ -26,15 +27,14 @@ import jax.random as jr
 import numpy as np
 
 jax.config.update("jax_enable_x64", True)
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
 
-import lerax_like as ll  # noqa: E402
+import lerax_like as ll  # noqa: E402  (after float64 is on)
+from benchmarks import results_dir  # noqa: E402
 from lerax_like.env import EnvState  # noqa: E402
 
 STEPS = 1000
 SEGMENT = 40
 BATCH = 256  # vmapped envs: a state of 4 numbers alone makes every method's memory negligible
-RESULTS = pathlib.Path(__file__).parent / "results"
 
 
 def step(env, y, action):
@@ -95,10 +95,15 @@ def measure(loss, env, y0s, actions, solver):
     }
 
 
-def main():
-    steps = STEPS  # a whole number of segments
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="120 steps, 8 envs")
+    parser.add_argument("--out", type=pathlib.Path, default=None, help="default: benchmarks/results[/quick]")
+    arguments = parser.parse_args(argv)
+    out = arguments.out or results_dir(arguments.quick)
+    steps, batch = (3 * SEGMENT, 8) if arguments.quick else (STEPS, BATCH)  # a whole number of segments
     actions = 0.5 * jnp.sin(0.05 * jnp.arange(steps, dtype=jnp.float64))[:, None]
-    y0s = jnp.stack([jnp.array([0.0, 0.0, 0.3, 0.0])] * BATCH) + 0.01 * jr.normal(jr.key(0), (BATCH, 4))
+    y0s = jnp.stack([jnp.array([0.0, 0.0, 0.3, 0.0])] * batch) + 0.01 * jr.normal(jr.key(0), (batch, 4))
     rows = []
     for solver in ("euler", "rk4", "tsit5"):
         env = ll.CartPoleContinuous(reward="smooth", solver=solver, theta_threshold_radians=float("inf"), x_threshold=float("inf"))
@@ -111,9 +116,9 @@ def main():
             rows.append(row)
             print(f"{solver:>6} {name:>26}: {row['temp_bytes'] / 2**20:8.2f} MiB temp, {row['seconds'] * 1e3:8.1f} ms, "
                   f"dL/d pole_mass = {row['grad_pole_mass']:.12g}")
-    RESULTS.mkdir(exist_ok=True)
-    (RESULTS / "gradient_memory.json").write_text(
-        json.dumps({"rows": rows, "jax": jax.__version__, "backend": jax.default_backend()}, indent=1)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "gradient_memory.json").write_text(
+        json.dumps({"rows": rows, "batch": batch, "jax": jax.__version__, "backend": jax.default_backend()}, indent=1)
     )
 
 

@@ -1,8 +1,8 @@
 """Steps per second of the vector env against the XLA floor and against Gymnasium, in one run.
 
-    python benchmarks/gym_vector.py                 # all five ids, N = 1024 and 16384, float64 and float32
-    python benchmarks/gym_vector.py --quick         # fewer steps and repeats, N = 1024
-    python benchmarks/gym_vector.py --ids CartPole-v1 --num-envs 1024
+    python -m benchmarks gym_vector                 # all five ids, N = 1024 and 16384, float64 and float32
+    python -m benchmarks gym_vector --quick         # fewer steps and repeats, N = 1024
+    python -m benchmarks.gym_vector --ids CartPole-v1 --num-envs 1024 [--out DIR]
 
 For each registered id, number of envs N and dtype, three vector envs step the same
 pre-drawn random actions (sampled from the action space, seed 0; episodes end and restart
@@ -16,7 +16,7 @@ as they would in training):
 Each is warmed up first; blocks of `--steps` steps are interleaved over `--repeats` rounds,
 so that load on the shared machine hits all alike, and the fastest block is kept, by wall
 time and by process CPU time (the CPU time is the steadier on a loaded machine). The load
-average is recorded. Writes benchmarks/results/gym_vector.csv (gym_vector_quick.csv with --quick).
+average is recorded. Writes benchmarks/results/gym_vector.csv (results/quick/ with --quick).
 """
 
 import argparse
@@ -24,7 +24,6 @@ import csv
 import datetime
 import os
 import platform
-import sys
 import time
 from pathlib import Path
 
@@ -33,12 +32,10 @@ import jax
 import numpy as np
 
 
-HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parent))
-sys.path.insert(0, str(HERE))
-import lerax_like  # noqa: E402,F401  (registers the lerax_like/ ids)
-from _floors import FloorVectorEnv  # noqa: E402
-from lerax_like.gym import SPECS  # noqa: E402
+import lerax_like  # noqa: F401  (registers the lerax_like/ ids)
+from benchmarks import results_dir
+from benchmarks._floors import FloorVectorEnv
+from lerax_like.gym import SPECS
 
 
 NAMES = tuple(spec.name for spec in SPECS.values())
@@ -102,7 +99,7 @@ def measure(name: str, num_envs: int, dtype: str, steps: int, repeats: int, with
     return row
 
 
-def main() -> None:
+def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--ids", nargs="+", default=list(NAMES), choices=NAMES, help="Gymnasium names")
     parser.add_argument("--num-envs", type=int, nargs="+", default=None)
@@ -111,11 +108,12 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=None)
     parser.add_argument("--no-peer", action="store_true", help="skip Gymnasium's envs")
     parser.add_argument("--quick", action="store_true")
-    parser.add_argument("--output", type=Path, default=None)
-    args = parser.parse_args()
+    parser.add_argument("--out", type=Path, default=None, help="folder (default: benchmarks/results[/quick])")
+    parser.add_argument("--output", type=Path, default=None, help="the CSV file (default: OUT/gym_vector.csv)")
+    args = parser.parse_args(argv)
     num_envs = args.num_envs or ([1024] if args.quick else [1024, 16384])
     repeats = args.repeats or (3 if args.quick else 25)
-    output = args.output or HERE / "results" / ("gym_vector_quick.csv" if args.quick else "gym_vector.csv")
+    output = args.output or (args.out or results_dir(args.quick)) / "gym_vector.csv"
 
     header = {
         "date_utc": datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M"),

@@ -19,10 +19,10 @@ vector step's JAX floor (a bare jitted call with its inputs and outputs, plus `n
 Each candidate is timed per call; a block's statistic is the median call, and the
 blocks of all candidates are interleaved; the minimum over blocks is reported.
 
-    python benchmarks/latency.py
-    python benchmarks/latency.py --quick
+    python -m benchmarks latency [--quick]
+    python -m benchmarks.latency [--steps 1000] [--repeats 7] [--vector-envs 1024] [--out DIR]
 
-Writes benchmarks/results/latency.csv.
+Writes latency.csv into benchmarks/results/ (results/quick/ with --quick).
 """
 
 import argparse
@@ -30,7 +30,6 @@ import csv
 import os
 import pathlib
 import statistics
-import sys
 import time
 
 import gymnasium
@@ -38,11 +37,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-HERE = pathlib.Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parent))
-
-import lerax_like  # noqa: E402,F401  (registers the lerax_like/ ids)
-from lerax_like.gym._compiled import float64, pack_step  # noqa: E402
+import lerax_like  # noqa: F401  (registers the lerax_like/ ids)
+from benchmarks import results_dir
+from lerax_like.gym._compiled import float64, pack_step
 
 
 def gym_stepper(env, actions):
@@ -176,15 +173,16 @@ def vector_call_stepper(env, num_steps, *, floor: bool):
     return block
 
 
-def main():
+def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--quick", action="store_true", help="fewer steps and repeats")
     parser.add_argument("--steps", type=int, default=None, help="single-env steps per block")
     parser.add_argument("--repeats", type=int, default=None)
-    parser.add_argument("--vector-envs", type=int, default=1024)
+    parser.add_argument("--vector-envs", type=int, default=None, help="1024 (64 with --quick)")
     parser.add_argument("--vector-steps", type=int, default=None)
-    parser.add_argument("--out", type=pathlib.Path, default=HERE / "results")
-    args = parser.parse_args()
+    parser.add_argument("--out", type=pathlib.Path, default=None, help="default: benchmarks/results[/quick]")
+    args = parser.parse_args(argv)
+    out = args.out or results_dir(args.quick)
     num_steps = args.steps or (200 if args.quick else 1000)
     repeats = args.repeats or (2 if args.quick else 7)
     vector_steps = args.vector_steps or (20 if args.quick else 200)
@@ -200,7 +198,7 @@ def main():
         "Gymnasium CartPole gym.make step": gym_stepper(theirs, actions),
         "Gymnasium CartPole unwrapped step": gym_stepper(theirs.unwrapped, actions),
     }
-    n = args.vector_envs
+    n = args.vector_envs or (64 if args.quick else 1024)
     our_vector = gymnasium.make_vec("lerax_like/CartPole-v1", num_envs=n, vectorization_mode="vector_entry_point")
     vector = {
         f"lerax_like vector env, N={n}": vector_stepper(our_vector, vector_steps),
@@ -237,9 +235,8 @@ def main():
         print(f"{name:42s} {seconds * 1e6:8.1f} us/vector step  {n / seconds / 1e6:7.2f} M steps/s  "
               f"x{theirs_vector / min(results[name]):5.2f} Gymnasium vector speed")
     print(f"load average at the end {os.getloadavg()}")
-    args.out.mkdir(parents=True, exist_ok=True)
-    suffix = "_quick" if args.quick else ""
-    with open(args.out / f"latency{suffix}.csv", "w", newline="") as file:
+    out.mkdir(parents=True, exist_ok=True)
+    with open(out / "latency.csv", "w", newline="") as file:
         writer = csv.DictWriter(file, fieldnames=list(rows[0]))
         writer.writeheader()
         for row in rows:

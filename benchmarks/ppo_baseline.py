@@ -5,10 +5,12 @@ passes 12 degrees or the cart leaves the track, 500 steps at most). Success: the
 100 random starts that a trained policy keeps up for all 500 steps, the same criterion as
 `notebooks/policy_learning.ipynb`. Records env steps, wall time and that share.
 
-    pip install torch==2.13.0 stable-baselines3   # not a dependency of lerax_like
-    python benchmarks/ppo_baseline.py [--timesteps 200000]
+    pip install stable-baselines3   # with a CPU torch; not a dependency of lerax_like
+    python -m benchmarks ppo_baseline            # 200000 env steps, 100 evaluation starts
+    python -m benchmarks ppo_baseline --quick    # 2048 env steps (one PPO rollout), 10 starts
+    python -m benchmarks.ppo_baseline [--timesteps 200000] [--out DIR]
 
-Writes benchmarks/results/ppo_baseline.json.
+Writes ppo_baseline.json into benchmarks/results/ (results/quick/ with --quick).
 """
 
 import argparse
@@ -23,6 +25,7 @@ import jax.numpy as jnp
 import numpy as np
 
 import lerax_like as ll
+from benchmarks import results_dir
 from lerax_like.env import EnvState
 
 
@@ -56,23 +59,29 @@ class CartPoleContinuousGym(gymnasium.Env):
         return self._y.astype(np.float32), 1.0, terminated, self._steps >= 500, {}
 
 
-def main():
-    from stable_baselines3 import PPO
-
-    parser = argparse.ArgumentParser()
-    parser.add_argument("--timesteps", type=int, default=200_000)
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="2048 env steps, 10 evaluation starts")
+    parser.add_argument("--timesteps", type=int, default=None)
     parser.add_argument("--seed", type=int, default=0)
-    arguments = parser.parse_args()
+    parser.add_argument("--out", type=pathlib.Path, default=None, help="default: benchmarks/results[/quick]")
+    arguments = parser.parse_args(argv)
+    try:
+        from stable_baselines3 import PPO
+    except ImportError as error:
+        raise SystemExit("ppo_baseline needs Stable-Baselines3: pip install stable-baselines3") from error
+    timesteps = arguments.timesteps or (2048 if arguments.quick else 200_000)
+    num_starts = 10 if arguments.quick else 100
 
     env = CartPoleContinuousGym()
     model = PPO("MlpPolicy", env, seed=arguments.seed, verbose=0, device="cpu")
     start = time.perf_counter()
-    model.learn(total_timesteps=arguments.timesteps)
+    model.learn(total_timesteps=timesteps)
     seconds = time.perf_counter() - start
 
     evaluation = CartPoleContinuousGym()
     lengths = []
-    for episode in range(100):
+    for episode in range(num_starts):
         observation, _ = evaluation.reset(seed=10_000 + episode)
         for t in range(500):
             action, _ = model.predict(observation, deterministic=True)
@@ -83,16 +92,17 @@ def main():
     lengths = np.array(lengths)
     record = {
         "algorithm": "PPO (stable-baselines3 defaults, MlpPolicy, 1 env)",
-        "env_steps": arguments.timesteps,
+        "env_steps": timesteps,
         "train_seconds": seconds,
-        "balanced_500_of_100": int(np.sum(lengths >= 500)),
+        "evaluation_starts": num_starts,
+        "balanced_500": int(np.sum(lengths >= 500)),
         "mean_episode_length": float(lengths.mean()),
         "seed": arguments.seed,
         "date": time.strftime("%Y-%m-%d"),
         "machine": f"{platform.machine()}, {platform.processor() or 'cpu'}, 2 cores shared",
-        "command": f"python benchmarks/ppo_baseline.py --timesteps {arguments.timesteps}",
     }
-    out = pathlib.Path(__file__).parent / "results" / "ppo_baseline.json"
+    out = (arguments.out or results_dir(arguments.quick)) / "ppo_baseline.json"
+    out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(record, indent=2) + "\n")
     print(json.dumps(record, indent=2))
 

@@ -4,25 +4,26 @@ Each variant runs the shared workload (`_workload.py`: N envs, random actions, T
 one scan) and adds one part of `AbstractEnv.step` at a time, so the differences between
 rows are the costs of the parts. gymnax's CartPole runs beside them as the reference.
 
-    python benchmarks/profile_step.py            # N=1024, T=500, 7 interleaved repeats
-    python benchmarks/profile_step.py --envs 64 --repeats 3
+    python -m benchmarks profile_step            # N=1024, T=500, 7 interleaved repeats
+    python -m benchmarks profile_step --quick    # N=64, T=100, 2 repeats
+    python -m benchmarks.profile_step --envs 64 --repeats 3 --out DIR
+
+Writes profile_step.csv into benchmarks/results/ (results/quick/ with --quick).
 """
 
 import argparse
 import csv
+import os
 import pathlib
-import sys
 
 import jax
 import jax.numpy as jnp
 import jax.random as jr
 
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-
-import lerax_like  # noqa: E402
-from lerax_like.env import EnvState  # noqa: E402
-from _workload import batched, compile_seconds, gymnax_program, interleaved, scanned, summary  # noqa: E402
+import lerax_like
+from benchmarks import results_dir
+from benchmarks._workload import batched, compile_seconds, gymnax_program, interleaved, scanned, summary
+from lerax_like.env import EnvState
 
 
 def hand_euler(env, y, u):
@@ -93,13 +94,18 @@ def variants(env):
     }
 
 
-def main():
+def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--envs", type=int, default=1024)
-    parser.add_argument("--steps", type=int, default=500)
-    parser.add_argument("--repeats", type=int, default=7)
-    parser.add_argument("--csv", type=pathlib.Path, default=None)
-    args = parser.parse_args()
+    parser.add_argument("--quick", action="store_true", help="N=64, T=100, 2 repeats")
+    parser.add_argument("--envs", type=int, default=None)
+    parser.add_argument("--steps", type=int, default=None)
+    parser.add_argument("--repeats", type=int, default=None)
+    parser.add_argument("--out", type=pathlib.Path, default=None, help="default: benchmarks/results[/quick]")
+    args = parser.parse_args(argv)
+    args.envs = args.envs or (64 if args.quick else 1024)
+    args.steps = args.steps or (100 if args.quick else 500)
+    args.repeats = args.repeats or (2 if args.quick else 7)
+    out = args.out or results_dir(args.quick)
 
     env = lerax_like.CartPole(solver="euler")
     runs = {}
@@ -113,18 +119,19 @@ def main():
     times = interleaved(runs, args.repeats)
     reference = summary(times["gymnax CartPole-v1"])[0]
     rows = []
-    print(f"N={args.envs}, T={args.steps}, {args.repeats} interleaved repeats; time relative to gymnax (min)")
+    print(f"N={args.envs}, T={args.steps}, {args.repeats} interleaved repeats, load average {os.getloadavg()}; "
+          "time relative to gymnax (min)")
     for name, seconds in times.items():
         best, median = summary(seconds)
         steps_per_second = args.envs * args.steps / best
         rows.append([name, f"{best:.5f}", f"{median:.5f}", f"{steps_per_second:.4g}", f"{best / reference:.3f}"])
         print(f"{name:36s} min {best * 1e3:8.2f} ms  median {median * 1e3:8.2f} ms  "
               f"{steps_per_second / 1e6:7.2f} M steps/s  x{best / reference:5.2f} gymnax time")
-    if args.csv is not None:
-        with open(args.csv, "w", newline="") as file:
-            writer = csv.writer(file)
-            writer.writerow(["variant", "min_s", "median_s", "steps_per_s", "time_vs_gymnax"])
-            writer.writerows(rows)
+    out.mkdir(parents=True, exist_ok=True)
+    with open(out / "profile_step.csv", "w", newline="") as file:
+        writer = csv.writer(file)
+        writer.writerow(["variant", "min_s", "median_s", "steps_per_s", "time_vs_gymnax"])
+        writer.writerows(rows)
 
 
 if __name__ == "__main__":

@@ -5,37 +5,43 @@ processes once `jax.distributed` is initialised). Keys are made inside a jitted 
 with `out_shardings`, so each device computes only its own envs' keys and no process
 needs the whole batch in memory; the vmapped rollout then runs where its inputs live.
 
-One process (any number of local devices; on CPU force some to see the sharding):
+One process (any number of local devices; on CPU force some to see the sharding; the runner
+`python -m benchmarks sharded_rollout [--quick]` forces four):
 
-    XLA_FLAGS=--xla_force_host_platform_device_count=4 python benchmarks/sharded_rollout.py
+    XLA_FLAGS=--xla_force_host_platform_device_count=4 python -m benchmarks.sharded_rollout
 
 Several processes (one per host, or several on one machine to try it): the same command
 on each, with the coordinator's address, the number of processes and this one's rank
 (on SLURM or Cloud TPU `jax.distributed.initialize()` finds them itself):
 
-    python benchmarks/sharded_rollout.py --coordinator HOST:1234 --num-processes 2 --process-id 0
-    python benchmarks/sharded_rollout.py --coordinator HOST:1234 --num-processes 2 --process-id 1
+    python -m benchmarks.sharded_rollout --coordinator HOST:1234 --num-processes 2 --process-id 0
+    python -m benchmarks.sharded_rollout --coordinator HOST:1234 --num-processes 2 --process-id 1
 
 It prints the mean number of episodes ended per env (random actions, autoreset; the same on every process) and, on process 0,
-the largest difference from the same rollout run unsharded on process 0's first device.
+the largest difference from the same rollout run unsharded on process 0's first device, which it
+also writes to sharded_rollout.json (in benchmarks/results/, or results/quick/ with --quick).
 """
 
 import argparse
 import functools
+import json
 import pathlib
-import sys
 
 import jax
 
 
-def main():
+def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--quick", action="store_true", help="8 envs per device, 50 steps")
     parser.add_argument("--coordinator", default=None, help="HOST:PORT of process 0")
     parser.add_argument("--num-processes", type=int, default=None)
     parser.add_argument("--process-id", type=int, default=None)
-    parser.add_argument("--envs-per-device", type=int, default=256)
-    parser.add_argument("--steps", type=int, default=500)
-    args = parser.parse_args()
+    parser.add_argument("--envs-per-device", type=int, default=None)
+    parser.add_argument("--steps", type=int, default=None)
+    parser.add_argument("--out", type=pathlib.Path, default=None, help="default: benchmarks/results[/quick]")
+    args = parser.parse_args(argv)
+    args.envs_per_device = args.envs_per_device or (8 if args.quick else 256)
+    args.steps = args.steps or (50 if args.quick else 500)
 
     if args.coordinator is not None:
         # CPU processes exchange data with gloo; GPUs and TPUs need no setting.
@@ -48,8 +54,8 @@ def main():
     from jax.experimental import multihost_utils
     from jax.sharding import NamedSharding, PartitionSpec
 
-    sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
     import lerax_like
+    from benchmarks import results_dir
 
     env = lerax_like.CartPole(solver="rk4")
     num_envs = args.envs_per_device * jax.device_count()
@@ -89,7 +95,15 @@ def main():
         with jax.default_device(jax.local_devices()[0]):
             local_keys = jr.split(jr.key(0), num_envs)
             unsharded = np.asarray(jax.jit(jax.vmap(episode))(local_keys))
-        print(f"largest difference from the unsharded run: {np.max(np.abs(gathered - unsharded))}")
+        difference = float(np.max(np.abs(gathered - unsharded)))
+        print(f"largest difference from the unsharded run: {difference}")
+        out = args.out or results_dir(args.quick)
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "sharded_rollout.json").write_text(json.dumps({
+            "processes": jax.process_count(), "devices": jax.device_count(), "num_envs": num_envs,
+            "steps": args.steps, "mean_episodes_ended_per_env": mean_episodes,
+            "largest_difference_from_unsharded": difference,
+        }, indent=1) + "\n")
 
 
 if __name__ == "__main__":

@@ -1,7 +1,8 @@
 """Stability on stiff and extreme cases: case x solver -> status, steps, error.
 
-    python benchmarks/stability.py            # writes benchmarks/results/stability.{csv,md}
-    python benchmarks/stability.py --quick    # fewer steps on the long horizons (a smoke run)
+    python -m benchmarks stability            # writes benchmarks/results/stability.{csv,md}
+    python -m benchmarks stability --quick    # three cases, three solvers, a short root-finder run, into results/quick/
+    python -m benchmarks.stability [--only CASE] [--out DIR]
 
 Every case is a scene built with the solver, run with constant actions from a fixed
 state; each env step's solve is checked (`solver_ok`) and the trajectory, sampled at
@@ -21,7 +22,7 @@ Status:
 The error is max over the env steps of |y - y_ref|_inf, over max |y_ref|_inf.
 
 Also compares Kvaerno5's root finders on Van der Pol (mu = 1e3) and writes
-`benchmarks/results/root_finders.{csv,md}`. Timings are from a shared 2-core machine:
+`root_finders.{csv,md}`. Timings are from a shared 2-core machine:
 indicative only, compare within one run.
 """
 
@@ -43,11 +44,11 @@ import optimistix
 from scipy.integrate import solve_ivp
 
 import lerax_like as ll
+from benchmarks import results_dir
 
 
 jax.config.update("jax_enable_x64", True)
 
-RESULTS = pathlib.Path(__file__).parent / "results"
 SOLVERS = ("euler", "rk4", "tsit5", "implicit_euler", "kvaerno3", "kvaerno5")
 TOLERANCE = 1e-3
 
@@ -221,10 +222,14 @@ def horizon_cases(horizon, skip):
     return [f64, f32]
 
 
+QUICK_CASES = ("cartpole baseline", "pole mass 0", "joint damping 300")
+QUICK_SOLVERS = ("euler", "tsit5", "kvaerno5")
+
+
 def cases(quick: bool) -> list[Case]:
     horizon = 2_000 if quick else 100_000
     slow = ("implicit_euler", "kvaerno3", "kvaerno5")
-    return [
+    every = [
         cartpole_case("cartpole baseline", "defaults, dt 0.02, 4 s"),
         cartpole_case("dt 0.5", "defaults, dt 0.5, 100 s", dt=0.5, steps=200),
         cartpole_case("pole mass 1e-6", "pole_mass 1e-6", pole_mass=1e-6),
@@ -245,6 +250,7 @@ def cases(quick: bool) -> list[Case]:
         van_der_pol_case("van der pol mu 1e3", "mu 1e3, dt 10, 3000 s", 1000.0, 10.0, 300),
         *horizon_cases(horizon, slow),
     ]
+    return [case for case in every if case.name in QUICK_CASES] if quick else every
 
 
 # --- running -------------------------------------------------------------------------
@@ -256,7 +262,7 @@ def run(env, y0, action, steps_array):
 
     def body(carry, _):
         y, alive = carry
-        raw, info = env.integrator.integrate(env.dynamics.vector_field, y, u, env.dt)
+        raw, info = env.integrator.integrate(env.physics.vector_field, y, u, env.dt)
         ok = info["solver_ok"] & alive
         next_y = jnp.where(ok, raw, y)
         record = (next_y, ok, jnp.all(jnp.isfinite(raw)), info["solver_steps"])
@@ -372,15 +378,22 @@ def markdown_table(rows, columns) -> str:
     return "\n".join(lines)
 
 
-def main():
+def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true")
+    parser.add_argument(
+        "--quick", action="store_true",
+        help=f"cases {', '.join(QUICK_CASES)}; solvers {', '.join(QUICK_SOLVERS)}; root finders to t = 300",
+    )
     parser.add_argument("--only", default=None, help="run only cases whose name contains this")
-    arguments = parser.parse_args()
-    RESULTS.mkdir(parents=True, exist_ok=True)
+    parser.add_argument("--out", type=pathlib.Path, default=None, help="default: benchmarks/results[/quick]")
+    arguments = parser.parse_args(argv)
+    out = arguments.out or results_dir(arguments.quick)
+    out.mkdir(parents=True, exist_ok=True)
 
-    finders = root_finders()
-    write(finders, RESULTS / "root_finders", list(finders[0]))
+    solvers = QUICK_SOLVERS if arguments.quick else SOLVERS
+    finders_t1 = 300.0 if arguments.quick else 3000.0
+    finders = root_finders(finders_t1)
+    write(finders, out / "root_finders", list(finders[0]))
 
     gap = contact_reference_gap()
     print(gap, flush=True)
@@ -390,17 +403,17 @@ def main():
     for case in cases(arguments.quick):
         if arguments.only and arguments.only not in case.name:
             continue
-        for solver in SOLVERS:
+        for solver in solvers:
             row = run_case(case, solver)
             print(row, flush=True)
             rows.append(row)
     columns = ["case", "description", "solver", "status", "steps", "error", "failed_at", "seconds"]
-    write(rows, RESULTS / "stability", columns)
+    write(rows, out / "stability", columns)
 
-    grid = ["| case | " + " | ".join(SOLVERS) + " |", "|---|" + "---|" * len(SOLVERS)]
+    grid = ["| case | " + " | ".join(solvers) + " |", "|---|" + "---|" * len(solvers)]
     for case in dict.fromkeys(row["case"] for row in rows):
         cells = []
-        for solver in SOLVERS:
+        for solver in solvers:
             row = next(r for r in rows if r["case"] == case and r["solver"] == solver)
             cell = row["status"]
             if row["error"]:
@@ -412,7 +425,7 @@ def main():
     text = [
         "# Stability on stiff and extreme cases",
         "",
-        "Written by `python benchmarks/stability.py`" + (" --quick" if arguments.quick else "") + ".",
+        "Written by `python -m benchmarks stability" + (" --quick" if arguments.quick else "") + "`.",
         "Status per case and solver (presets: fixed-step `euler`, `rk4`; adaptive `tsit5`,",
         "`implicit_euler`, `kvaerno3`, `kvaerno5` with a PIDController, max_steps 4096 per env",
         "step), with the relative error against SciPy (1e-12) or the env step at which the run",
@@ -428,14 +441,14 @@ def main():
         "",
         markdown_table(rows, columns),
         "",
-        "## Kvaerno5 root finders (Van der Pol, mu = 1e3, [0, 3000], rtol 1e-6, atol 1e-9)",
+        f"## Kvaerno5 root finders (Van der Pol, mu = 1e3, [0, {finders_t1:g}], rtol 1e-6, atol 1e-9)",
         "",
         markdown_table(finders, list(finders[0])),
         "",
     ]
-    (RESULTS / "stability.md").write_text("\n".join(text))
-    (RESULTS / "root_finders.md").write_text(
-        "# Kvaerno5 root finders on Van der Pol (mu = 1e3)\n\n" + markdown_table(finders, list(finders[0])) + "\n"
+    (out / "stability.md").write_text("\n".join(text))
+    (out / "root_finders.md").write_text(
+        f"# Kvaerno5 root finders on Van der Pol (mu = 1e3, t in [0, {finders_t1:g}])\n\n" + markdown_table(finders, list(finders[0])) + "\n"
     )
 
 

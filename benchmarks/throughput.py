@@ -11,10 +11,11 @@ Workload (`_workload.py`): N CartPoles, random actions, autoreset, T steps in on
 Repeats are interleaved across implementations for each N, so that the noise of a shared
 machine falls on all of them alike; ratios are taken of the minima.
 
-    python benchmarks/throughput.py            # N = 1, 64, 1024, 16384; T = 500
-    python benchmarks/throughput.py --quick    # N = 1, 64; T = 100; a smoke test
+    python -m benchmarks throughput            # N = 1, 64, 1024, 16384; T = 500
+    python -m benchmarks throughput --quick    # N = 1, 64; T = 100; a smoke test
+    python -m benchmarks.throughput --envs 1024 16384 --repeats 7 --out DIR
 
-Writes benchmarks/results/throughput.csv and throughput.png (or *_quick.*).
+Writes throughput.csv and throughput.png into benchmarks/results/ (results/quick/ with --quick).
 """
 
 import argparse
@@ -22,19 +23,14 @@ import csv
 import os
 import pathlib
 import platform
-import sys
-import time
 
 import jax
 import jax.random as jr
 import numpy as np
 
-HERE = pathlib.Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parent))
-sys.path.insert(0, str(HERE))
-
-import lerax_like  # noqa: E402
-from _workload import batched, compile_seconds, gymnax_program, interleaved, scanned, summary  # noqa: E402
+import lerax_like
+from benchmarks import results_dir
+from benchmarks._workload import batched, compile_seconds, gymnax_program, interleaved, scanned, summary
 
 
 SYNC_MAX_ENVS = 64
@@ -70,19 +66,19 @@ def gymnasium_runner(num_envs: int, num_steps: int, mode: str):
     return run
 
 
-def main():
+def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--quick", action="store_true", help="N = 1, 64; T = 100; 2 repeats")
     parser.add_argument("--envs", type=int, nargs="+", default=None)
     parser.add_argument("--steps", type=int, default=None)
     parser.add_argument("--repeats", type=int, default=None)
-    parser.add_argument("--out", type=pathlib.Path, default=HERE / "results")
-    args = parser.parse_args()
+    parser.add_argument("--out", type=pathlib.Path, default=None, help="default: benchmarks/results[/quick]")
+    args = parser.parse_args(argv)
+    out = args.out or results_dir(args.quick)
     env_counts = args.envs or ([1, 64] if args.quick else [1, 64, 1024, 16384])
     num_steps = args.steps or (100 if args.quick else 500)
     repeats = args.repeats or (2 if args.quick else 5)
-    suffix = "_quick" if args.quick else ""
-    args.out.mkdir(parents=True, exist_ok=True)
+    out.mkdir(parents=True, exist_ok=True)
 
     jax_programs = {
         "lerax_like Euler": lambda: lerax_program("euler"),
@@ -129,12 +125,12 @@ def main():
                   f"compile {row['compile_s']:.2f} s", flush=True)
     print(f"load average at the end {os.getloadavg()}")
 
-    with open(args.out / f"throughput{suffix}.csv", "w", newline="") as file:
+    with open(out / "throughput.csv", "w", newline="") as file:
         writer = csv.DictWriter(file, fieldnames=list(rows[0]))
         writer.writeheader()
         for row in rows:
             writer.writerow({k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in row.items()})
-    plot(rows, args.out / f"throughput{suffix}.png", num_steps)
+    plot(rows, out / "throughput.png", num_steps)
 
 
 def plot(rows, path, num_steps):

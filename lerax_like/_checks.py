@@ -8,32 +8,26 @@ names the parameter and its allowed range.
 
 
 import jax
-import jax.numpy as jnp
 import numpy as np
+
+from . import _fields
 
 
 def as_parameter(value, name: str) -> jax.Array:
     """A physical parameter as a floating-point array leaf (default float dtype)."""
-    if isinstance(value, jax.core.Tracer):
-        if not jnp.issubdtype(value.dtype, jnp.floating):
-            value = value.astype(float)
-        return value
-    try:
-        array = jnp.asarray(value, dtype=float)
-    except (TypeError, ValueError) as error:
-        raise TypeError(f"{name} must be a real number, got {value!r}") from error
-    return array
+    return _fields.as_parameter(value, name)
 
 
-def _concrete(value) -> np.ndarray | None:
+def _concrete(value, name: str) -> np.ndarray | None:
     if isinstance(value, jax.core.Tracer):
         return None
-    return np.asarray(value)
+    # Refuses a non-number (`"heavy"`) by name before any check computes with it.
+    return np.asarray(as_parameter(value, name))
 
 
 def check_positive(value, name: str) -> None:
     """Refuse a concrete value that is not a finite number > 0."""
-    array = _concrete(value)
+    array = _concrete(value, name)
     if array is None:
         return
     if not (np.all(np.isfinite(array)) and np.all(array > 0)):
@@ -42,7 +36,7 @@ def check_positive(value, name: str) -> None:
 
 def check_nonnegative(value, name: str) -> None:
     """Refuse a concrete value that is not a finite number >= 0."""
-    array = _concrete(value)
+    array = _concrete(value, name)
     if array is None:
         return
     if not (np.all(np.isfinite(array)) and np.all(array >= 0)):
@@ -51,7 +45,7 @@ def check_nonnegative(value, name: str) -> None:
 
 def check_positive_or_inf(value, name: str) -> None:
     """Refuse a concrete value that is not > 0 (infinity allowed: 'no bound')."""
-    array = _concrete(value)
+    array = _concrete(value, name)
     if array is None:
         return
     if not np.all(array > 0) or np.any(np.isnan(array)):
@@ -60,7 +54,7 @@ def check_positive_or_inf(value, name: str) -> None:
 
 def check_finite(value, name: str) -> None:
     """Refuse a concrete value that is NaN or infinite."""
-    array = _concrete(value)
+    array = _concrete(value, name)
     if array is None:
         return
     if not np.all(np.isfinite(array)):

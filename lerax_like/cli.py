@@ -1,8 +1,10 @@
 """The `lerax-like` command: argument parsing only; the work is in `lerax_like.analysis`.
 
-    lerax-like study CartPole [--quick] [--out DIR]
-    lerax-like gradients CartPole [--quick] [--out DIR] [--no-plot]
+    lerax-like study CartPole [--quick] [--out DIR] [--solver NAME ...]
+    lerax-like gradients CartPole [--quick] [--out DIR] [--no-plot] [--solver NAME ...]
+    lerax-like gradient-variance DoubleCartPole [--quick] [--solver NAME ...] [--out DIR] [--no-plot]
     lerax-like rollout CartPole [--steps N] [--seed S]
+    lerax-like solvers
 """
 
 import argparse
@@ -10,18 +12,45 @@ import sys
 import time
 
 
+SOLVER_HELP = (
+    "a solver to study, repeatable: a preset (see `lerax-like solvers`) or 'module:attribute' naming a "
+    "diffrax solver instance or a solver class built with no arguments ('diffrax:Bosh3', "
+    "'my_methods:RALSTON3'; the module is imported from the current directory or PYTHONPATH). Solvers "
+    "without an error estimate are swept over substeps, those with one over substeps and tolerances. "
+    "Default: the study's own set"
+)
+
+
+def _solvers_from(arguments, command: str):
+    """The solvers named by `--solver`, or None; a bad name is a usage error (exit 2)."""
+    if not arguments.solver:
+        return None
+    from .integrate import solver_from_spec
+
+    try:
+        return [solver_from_spec(spec) for spec in arguments.solver]
+    except ValueError as error:
+        print(f"lerax-like {command}: {error}", file=sys.stderr)
+        sys.exit(2)
+
+
 def _study(arguments) -> int:
-    from .analysis import StudyConfig, run_study, write_study
-    from .analysis.report import cheapest_at, format_orders, format_table
+    from .analysis import StudyConfig, run_study, sweeps_for, write_study
+    from .analysis.report import PLOT_HINT, cheapest_at, format_orders, format_table, matplotlib_available
+    from .analysis.scenes import SCENES
 
     overrides = {}
     if arguments.seed is not None:
         overrides["seed"] = arguments.seed
+    solvers = _solvers_from(arguments, "study")
+    if solvers is not None:
+        overrides["sweeps"] = sweeps_for(solvers, quick=arguments.quick, stiff=SCENES[arguments.scene].stiff)
     config = StudyConfig.default(arguments.scene, quick=arguments.quick, **overrides)
+    plot = not arguments.no_plot and matplotlib_available()
     start = time.perf_counter()
     result = run_study(config, progress=not arguments.no_progress)
     elapsed = time.perf_counter() - start
-    paths = write_study(result, arguments.out, plot=not arguments.no_plot, study_seconds=elapsed)
+    paths = write_study(result, arguments.out, plot=plot, study_seconds=elapsed)
     print(format_table(result.rows))
     print()
     print("Convergence orders (fixed steps; errors between the reference floor and "
@@ -33,6 +62,8 @@ def _study(arguments) -> int:
         verdict = "none reached it" if best is None else f"{best['label']} at {best['setting']} ({best['seconds']:.2e} s)"
         print(f"cheapest at error <= {target:g} ({config.schedules[0]} actions): {verdict}")
     print()
+    if not arguments.no_plot and not plot:
+        print(f"plot skipped: matplotlib is not installed ({PLOT_HINT})")
     print(f"study took {elapsed:.1f} s; wrote " + ", ".join(paths.values()))
     return 0
 
@@ -44,6 +75,11 @@ def _gradients(arguments) -> int:
     overrides = {"mode": arguments.mode}
     if arguments.seed is not None:
         overrides["seed"] = arguments.seed
+    solvers = _solvers_from(arguments, "gradients")
+    if solvers is not None:
+        from .analysis.gradient_accuracy import gradient_sweeps_for
+
+        overrides["sweeps"] = gradient_sweeps_for(solvers, quick=arguments.quick)
     try:
         config = GradientStudyConfig.default(arguments.scene, quick=arguments.quick, **overrides)
     except ValueError as error:
@@ -52,7 +88,10 @@ def _gradients(arguments) -> int:
     start = time.perf_counter()
     result = run_gradient_study(config)
     elapsed = time.perf_counter() - start
-    paths = write_gradient_study(result, arguments.out, plot=not arguments.no_plot, study_seconds=elapsed)
+    from .analysis.report import PLOT_HINT, matplotlib_available
+
+    plot = not arguments.no_plot and matplotlib_available()
+    paths = write_gradient_study(result, arguments.out, plot=plot, study_seconds=elapsed)
     reference = result.record["reference"]
     print(f"{config.scene}: gradient of {config.cost.__name__} over {config.horizon} env steps with respect to "
           f"{', '.join(result.record['parameter_names'])} ({config.mode} mode); error relative to Dopri8 at "
@@ -61,8 +100,79 @@ def _gradients(arguments) -> int:
     print()
     print(f"Orders of the gradient error (fixed steps; errors between the floor and {config.fit_ceiling:g}):")
     for entry in result.convergence_orders():
-        print(f"{entry['solver']:<9} order {entry['order']:.2f} ({entry['points']} points)")
+        if entry["order"] is None:
+            print(f"{entry['solver']:<9} order {entry['note']}")
+        else:
+            print(f"{entry['solver']:<9} order {entry['order']:.2f} ({entry['points']} points)")
     print()
+    if not arguments.no_plot and not plot:
+        print(f"plot skipped: matplotlib is not installed ({PLOT_HINT})")
+    print(f"study took {elapsed:.1f} s; wrote " + ", ".join(paths.values()))
+    return 0
+
+
+def _gradient_variance(arguments) -> int:
+    from .analysis.gradient_variance import (
+        GradientVarianceConfig,
+        format_gradient_variance_table,
+        run_gradient_variance,
+        summary,
+        write_gradient_variance,
+    )
+
+    overrides = {}
+    if arguments.seed is not None:
+        overrides["seed"] = arguments.seed
+    if arguments.solver:
+        overrides["solvers"] = tuple(arguments.solver)
+    if arguments.dtype is not None:
+        overrides["dtype"] = arguments.dtype
+    stiffnesses = arguments.end_stop_stiffness or [None]
+    try:
+        configs = [
+            GradientVarianceConfig.default(
+                arguments.scene, quick=arguments.quick,
+                scene_kwargs={} if k is None else {"end_stop_stiffness": k}, **overrides,
+            )
+            for k in stiffnesses
+        ]
+        results = []
+        start = time.perf_counter()
+        for config in configs:
+            results.append(run_gradient_variance(config, progress=lambda m: print(m, file=sys.stderr)))
+        elapsed = time.perf_counter() - start
+    except ValueError as error:
+        print(f"lerax-like gradient-variance: {error}", file=sys.stderr)
+        return 2
+    if arguments.scene == "CartPole":
+        print("CartPole is studied through CartPoleContinuous: a force of action * force_mag newtons, "
+              "continuous, so that the cost is differentiable in the actions")
+    plot = not arguments.no_plot
+    if plot:
+        try:
+            import matplotlib  # noqa: F401
+        except ImportError:
+            print("no plot: matplotlib is not installed (pip install 'lerax_like[study]')")
+            plot = False
+    paths = write_gradient_variance(results, arguments.out, stem=f"{arguments.scene}_gradient_variance",
+                                    plot=plot, study_seconds=elapsed)
+    for result in results:
+        print(f"{result.config.name}: {result.config.samples} samples per estimator, reference of "
+              f"{result.config.reference_samples} antithetic zeroth-order samples ({result.config.dtype})")
+        print(format_gradient_variance_table(result.rows))
+        for entry in summary(result):
+            print(f"  {entry['solver']} {entry['policy']}: first-order variance x"
+                  + ", x".join(f"{g:.3g} (sigma {s})" for s, g in entry["first_order_variance_growth"].items())
+                  + f" from H={min(result.config.horizons)} to H={max(result.config.horizons)}")
+            for c in entry["crossover"]:
+                print(f"    sigma {c['sigma']}: Lyapunov exponent {c['lyapunov_exponent']:.3g}/s, variance growth "
+                      f"rate {c['variance_growth_rate']:.3g}/s; first order above zeroth order from H = "
+                      f"{c['measured_horizon']} (measured), {c['predicted_horizon']} (predicted); agree: {c['agree']}")
+            if "float32_first_digit_lost_horizon" in entry:
+                print(f"    float32 loses the leading digit at H = {entry['float32_first_digit_lost_horizon']} "
+                      f"(searched up to {entry['float32_horizons_searched']}; relative error there "
+                      f"{entry['float32_relative_error_at_longest']:.1e})")
+        print()
     print(f"study took {elapsed:.1f} s; wrote " + ", ".join(paths.values()))
     return 0
 
@@ -77,21 +187,53 @@ def _rollout(arguments) -> int:
     return 0
 
 
+def format_solver_table() -> str:
+    """The solver presets with their orders, as `lerax-like solvers` prints them."""
+    from .integrate import SOLVERS
+
+    header = ("name", "order", "stages", "f-evals/step", "kind", "error estimate", "default controller", "")
+    lines = [header]
+    for preset in SOLVERS.values():
+        lines.append((
+            preset.name, str(preset.order), "" if preset.stages is None else str(preset.stages),
+            "Newton" if preset.evaluations_per_step is None else str(preset.evaluations_per_step),
+            "implicit" if preset.implicit else "explicit", "yes" if preset.error_estimate else "no",
+            preset.controller, preset.description,
+        ))
+    widths = [max(len(line[i]) for line in lines) for i in range(len(header))]
+    return "\n".join("  ".join(cell.ljust(width) for cell, width in zip(line, widths)).rstrip() for line in lines)
+
+
+def _solvers(arguments) -> int:
+    del arguments
+    print(format_solver_table())
+    print()
+    print("Any diffrax solver works too: `--solver module:attribute` on `study` and `gradients`, "
+          "or lerax_like.register_solver(name, factory, order=...) from Python.")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     from .analysis.scenes import SCENES
+    from .integrate import SOLVER_PRESETS
 
     parser = argparse.ArgumentParser(
         prog="lerax-like", description="Solver-accuracy studies on continuous-time control envs."
     )
     commands = parser.add_subparsers(dest="command", required=True)
 
-    study = commands.add_parser("study", help="work-precision study of the solvers on a scene")
+    study = commands.add_parser(
+        "study", help="work-precision study of the solvers on a scene",
+        description="Work-precision study of solvers on a scene against a SciPy reference.",
+        epilog="solver presets:\n" + format_solver_table(), formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     study.add_argument("scene", choices=sorted(SCENES))
     study.add_argument("--quick", action="store_true", help="a small study, under a minute on 2 cores")
     study.add_argument("--out", default="lerax_like_study", help="folder for CSV, PNG and JSON (default: %(default)s)")
     study.add_argument("--seed", type=int, default=None, help="seed of initial states and actions (default 0)")
     study.add_argument("--no-progress", action="store_true", help="no progress bar")
     study.add_argument("--no-plot", action="store_true", help="skip the PNG (no matplotlib needed)")
+    study.add_argument("--solver", action="append", metavar="NAME", help=SOLVER_HELP)
     study.set_defaults(run=_study)
 
     gradients = commands.add_parser(
@@ -104,13 +246,38 @@ def main(argv: list[str] | None = None) -> int:
     gradients.add_argument("--mode", choices=("forward", "reverse"), default="forward",
                            help="jax.jacfwd or jax.grad (default: %(default)s, the cheaper for a few parameters)")
     gradients.add_argument("--no-plot", action="store_true", help="skip the PNG (no matplotlib needed)")
+    gradients.add_argument("--solver", action="append", metavar="NAME", help=SOLVER_HELP)
     gradients.set_defaults(run=_gradients)
+
+    variance = commands.add_parser(
+        "gradient-variance",
+        help="first- vs zeroth-order gradient estimators against horizon: variance, bias, chaos, float32",
+    )
+    variance.add_argument("scene", choices=sorted(SCENES),
+                          help="a scene with continuous actions that does not clip or wrap its state "
+                               "(CartPole is studied through CartPoleContinuous)")
+    variance.add_argument("--quick", action="store_true",
+                          help="horizons 10, 30, 100, 256 samples (default: 10 to 200, 512 samples)")
+    variance.add_argument("--solver", nargs="+", metavar="NAME", choices=SOLVER_PRESETS,
+                          help="solver presets (default: rk4; tsit5 with end stops)")
+    variance.add_argument("--end-stop-stiffness", nargs="+", type=float, metavar="K",
+                          help="cart-poles: end stops of these stiffnesses (N/m) at 0.5 m, one study each")
+    variance.add_argument("--dtype", choices=("float64", "float32"), default=None,
+                          help="dtype of the estimators (default float64; float32 vs float64 is measured anyway)")
+    variance.add_argument("--out", default="lerax_like_gradient_variance",
+                          help="folder for CSV, PNG and JSON (default: %(default)s)")
+    variance.add_argument("--seed", type=int, default=None, help="seed of the samples (default 0)")
+    variance.add_argument("--no-plot", action="store_true", help="skip the PNG (no matplotlib needed)")
+    variance.set_defaults(run=_gradient_variance)
 
     rollout = commands.add_parser("rollout", help="one episode with each solver preset, error and wall time")
     rollout.add_argument("scene", choices=sorted(SCENES))
     rollout.add_argument("--steps", type=int, default=200)
     rollout.add_argument("--seed", type=int, default=0)
     rollout.set_defaults(run=_rollout)
+
+    solvers = commands.add_parser("solvers", help="the solver presets: order, stages, error estimate, controller")
+    solvers.set_defaults(run=_solvers)
 
     arguments = parser.parse_args(argv)
     return arguments.run(arguments)

@@ -20,7 +20,7 @@ import jax
 import jax.numpy as jnp
 import jax.random as jr
 
-from ._fields import POSITIVE, assign_fields, parameter
+from ._fields import POSITIVE, assign_fields, concrete, parameter
 from ._random import uniform
 from ._types import Array, BoolScalar, Float, Input, IntScalar, Key, Scalar, State
 from .integrate import Integrator, make_integrator
@@ -62,7 +62,9 @@ class GymnasiumSpec:
     - `name`: Gymnasium's id (`"CartPole-v1"`); `max_episode_steps`, `reward_threshold`: Gymnasium's.
     - `renderer`: the Gymnasium env class (`"module:Class"`) whose `render` draws the scene.
     - `attributes`: Gymnasium's attribute names on its env and the scene's path for each
-      (`{"masspole": "dynamics.pole_mass"}`); the renderer reads them, and so can users.
+      (`("masspole", "dynamics.pole_mass")`; a name listed twice when Gymnasium's one
+      attribute is several parameters, as Acrobot's `LINK_MOI`). The renderer reads them,
+      and the Gymnasium env has them as properties that users read and write.
     - `reset_options`: how Gymnasium's `reset(options=...)` bounds the start: `"bounds"`
       (`low`/`high` for every drawn coordinate) or `"pendulum"` (`x_init`, `y_init`).
     - `float32_start`: Gymnasium's env stores its start in float32 (Acrobot).
@@ -123,9 +125,10 @@ class AbstractEnv(eqx.Module):
     - `stochastic`: whether `transition`, `observation`, `reward` or `terminal` draw random
       numbers (`initial` always does). A deterministic scene's parts get `key=None` (one
       that draws anyway fails at once), and its whole key goes to the start draw.
-    - `stiff`: whether its dynamics are stiff at the defaults, so that the studies' SciPy
-      reference uses Radau instead of DOP853.
-    - `gymnasium`: its `GymnasiumSpec`, or None when it stands for no Gymnasium env.
+    - `stiff`: whether its dynamics are stiff, so that the studies' SciPy reference uses
+      Radau instead of DOP853 (False unless declared).
+    - `gymnasium`: its `GymnasiumSpec`, or None (the default) when it stands for no
+      Gymnasium env.
     - `aliases`: other names its keywords go by (`("reward", "reward_kind")`; Gymnasium's
       names, such as Pendulum's `g`).
     - `addons`: the generalised-force add-ons it accepts (`JointDamping`, `EndStops`);
@@ -137,8 +140,8 @@ class AbstractEnv(eqx.Module):
     """
 
     stochastic: eqx.AbstractClassVar[bool]
-    stiff: eqx.AbstractClassVar[bool]
-    gymnasium: eqx.AbstractClassVar[GymnasiumSpec | None]
+    stiff: ClassVar[bool] = False
+    gymnasium: ClassVar[GymnasiumSpec | None] = None
     addons: ClassVar[tuple[type, ...]] = ()
     aliases: ClassVar[tuple[tuple[str, str], ...]] = ()
 
@@ -147,11 +150,18 @@ class AbstractEnv(eqx.Module):
     dt: eqx.AbstractVar[Scalar]
     max_episode_steps: eqx.AbstractVar[int | None]
 
-    def __init__(self, **keywords):
-        """Every field by keyword; besides, the dynamics' parameters and the integrator's
-        settings (`solver`, `stepsize_controller`, `max_steps`, `adjoint`, `substeps`), and
-        the add-ons' parameters (`joint_damping`, ...) flat."""
+    def __init__(self, *fields, **keywords):
+        """Every field by keyword (or by position, in declaration order); besides, the
+        dynamics' parameters and the integrator's settings (`solver`, `stepsize_controller`,
+        `max_steps`, `adjoint`, `substeps`), and the add-ons' parameters (`joint_damping`,
+        ...) flat."""
         cls = type(self)
+        for field, value in zip(dataclasses.fields(cls), fields, strict=False):
+            if field.name in keywords:
+                raise TypeError(f"{cls.__name__} got {field.name} both by position and by keyword")
+            keywords[field.name] = value
+        if len(fields) > len(dataclasses.fields(cls)):
+            raise TypeError(f"{cls.__name__} takes at most {len(dataclasses.fields(cls))} positional fields")
         for alias, name in cls.aliases:
             if alias in keywords:
                 keywords[name] = keywords.pop(alias)
@@ -265,6 +275,29 @@ class AbstractEnv(eqx.Module):
         y = jnp.where(info["solver_ok"], y, state.y)
         return EnvState(y=y, steps=state.steps + 1), info
 
+    def check_state(self, state: EnvState) -> None:
+        """Refuse, by name, a state whose shape does not fit the scene (at trace time)."""
+        if not isinstance(state, EnvState):
+            raise TypeError(f"state must be an EnvState (from reset or step), got {type(state).__name__}")
+        expected = jnp.shape(self.initial_bounds[0])
+        if jnp.shape(state.y) != expected:
+            raise ValueError(
+                f"state.y must have shape {expected} (the state of {type(self).__name__}), "
+                f"got shape {jnp.shape(state.y)}"
+            )
+
+    def __hash__(self) -> int:
+        # `jax.jit(env.step)` hashes the bound method, hence `env`, whose array leaves are
+        # unhashable; JAX's own message (`unhashable type: ArrayImpl`) does not say why.
+        try:
+            return super().__hash__()
+        except TypeError as error:
+            raise TypeError(
+                f"a {type(self).__name__} holds arrays (its parameters) and cannot be hashed, so "
+                "jax.jit(env.step) and static arguments fail: use eqx.filter_jit(env.step), or pass "
+                "env as an argument of a function under eqx.filter_jit"
+            ) from error
+
     def truncate(self, state: EnvState) -> BoolScalar:
         """Whether the episode's time limit is reached."""
         if self.max_episode_steps is None:
@@ -299,10 +332,26 @@ class AbstractEnv(eqx.Module):
         state that overflows is absorbing. `info["solver_ok"]` tells this end apart from
         the task's own.
 
+        Bad input: an `action` whose shape or dtype does not fit `action_space` (see
+        `AbstractSpace.check`), or a `state.y` of the wrong shape, is refused with a
+        `TypeError`/`ValueError` that names it, when the step is traced. An action of
+        fitting shape that cannot be applied (a discrete action out of range, a
+        non-finite continuous one) is refused with a `ValueError` when it is concrete
+        (an eager call); when it is traced (under `jit`, `vmap`, `scan`) the step is
+        reported in `info["action_ok"]` and fails as above (pre-step state, worst reward,
+        terminated), never silently applied as another action. This costs no runtime
+        check that could stop a hot loop, so there is no switch to turn it off.
+
         `observation_before`, if given, is the observation of `state` (cast to
         `observation_dtype`) that a failed step returns; a caller that has it, as the
         Gymnasium layer has its previous result, spares the step observing `state` again.
         """
+        action = self.action_space.check(action, "action")
+        self.check_state(state)
+        action_ok = self.action_space.admissible(action)
+        if concrete(action_ok) is not None and not bool(action_ok):
+            space = self.action_space
+            raise ValueError(f"action {concrete(action).tolist()} is not admissible in {space}: it must be {space.rule}")
         keys = step_keys(key, self.stochastic)
 
         def observe(s):
@@ -315,11 +364,13 @@ class AbstractEnv(eqx.Module):
         observation_ok = jnp.all(jnp.isfinite(observation))
         reward_ok = jnp.isfinite(reward)
         ok = info["solver_ok"] & observation_ok & reward_ok
-        next_state = jax.tree.map(lambda new, old: jnp.where(ok, new, old), next_state, EnvState(state.y, next_state.steps))
-        observation = jnp.where(ok, observation, observe(state) if observation_before is None else observation_before)
-        reward = jnp.where(ok, reward, jnp.asarray(self.worst_reward, reward.dtype))
-        terminated = self.terminal(next_state, key=keys.terminal) | ~ok
-        return next_state, observation, reward, terminated, {**info, "solver_ok": ok}
+        applied = ok & action_ok
+        next_state = EnvState(y=jnp.where(applied, next_state.y, state.y), steps=next_state.steps)
+        previous = observe(state) if observation_before is None else observation_before
+        observation = jnp.where(applied, observation, previous)
+        reward = jnp.where(applied, reward, jnp.asarray(self.worst_reward, reward.dtype))
+        terminated = self.terminal(next_state, key=keys.terminal) | ~applied
+        return next_state, observation, reward, terminated, {**info, "solver_ok": ok, "action_ok": action_ok}
 
     def step(
         self, state: EnvState, action: Array, *, key: Key

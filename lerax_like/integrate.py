@@ -5,7 +5,10 @@ adjoint. `make_integrator` turns a preset name (`"euler"`, `"rk4"`, `"tsit5"`, .
 solver object into one, refusing pairings that would silently produce garbage.
 """
 
-from collections.abc import Callable
+import dataclasses
+import importlib
+import types
+from collections.abc import Callable, Mapping, Sequence
 from typing import ClassVar
 
 import diffrax
@@ -14,7 +17,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import optimistix
-# diffrax's marker for "take this tolerance from the step-size controller" (not re-exported).
+# diffrax's marker for "take this tolerance from the step-size controller": diffrax (0.7)
+# exports no public name for it, so this one private import stays.
 from diffrax._root_finder import use_stepsize_tol
 
 from ._checks import check_count
@@ -69,37 +73,188 @@ def _uses_controller_tolerances(solver: diffrax.AbstractSolver) -> bool:
     )
 
 
-def _adaptive(rtol: float, atol: float) -> diffrax.PIDController:
-    return diffrax.PIDController(rtol=rtol, atol=atol)
+def _adaptive(rtol: float, atol: float) -> Callable[[], diffrax.PIDController]:
+    return lambda: diffrax.PIDController(rtol=rtol, atol=atol)
 
 
-# name -> (solver factory, default controller factory, order of the method)
-_PRESETS: dict[str, tuple[Callable[[], diffrax.AbstractSolver], Callable[[], diffrax.AbstractStepSizeController]]] = {
-    "euler": (diffrax.Euler, diffrax.ConstantStepSize),
-    "heun": (diffrax.Heun, diffrax.ConstantStepSize),
-    "midpoint": (diffrax.Midpoint, diffrax.ConstantStepSize),
-    "ralston": (diffrax.Ralston, diffrax.ConstantStepSize),
-    "rk4": (RK4, diffrax.ConstantStepSize),
-    "tsit5": (diffrax.Tsit5, lambda: _adaptive(1e-6, 1e-9)),
-    "dopri5": (diffrax.Dopri5, lambda: _adaptive(1e-6, 1e-9)),
-    "dopri8": (diffrax.Dopri8, lambda: _adaptive(1e-8, 1e-11)),
-    "kvaerno5": (lambda: diffrax.Kvaerno5(root_finder=_implicit_root_finder()), lambda: _adaptive(1e-6, 1e-9)),
-    "implicit_euler": (lambda: diffrax.ImplicitEuler(root_finder=_implicit_root_finder()), lambda: _adaptive(1e-3, 1e-6)),
-    "kvaerno3": (lambda: diffrax.Kvaerno3(root_finder=_implicit_root_finder()), lambda: _adaptive(1e-6, 1e-9)),
-    "kvaerno4": (lambda: diffrax.Kvaerno4(root_finder=_implicit_root_finder()), lambda: _adaptive(1e-6, 1e-9)),
-    "semi_implicit_euler": (SemiImplicitEuler, diffrax.ConstantStepSize),
-}
+@dataclasses.dataclass(frozen=True)
+class SolverPreset:
+    """A solver by name: how to build it, and what a numerical analyst asks of it first.
 
-# Implicit presets: with a constant step size their root finder gets explicit tolerances.
-_IMPLICIT_PRESETS = {
-    "implicit_euler": diffrax.ImplicitEuler,
-    "kvaerno3": diffrax.Kvaerno3,
-    "kvaerno4": diffrax.Kvaerno4,
-    "kvaerno5": diffrax.Kvaerno5,
-}
+    - `name`: the name accepted wherever a solver is (`make_integrator(name)`,
+      `CartPole(solver=name)`, `lerax-like study --solver name`).
+    - `make_solver`: builds the solver (no arguments).
+    - `order`: order of convergence of the method (global error `O(h^order)`).
+    - `stages`: stages of one step (`None` if not a Runge--Kutta method);
+      `evaluations_per_step`: vector-field evaluations of one accepted step, which is
+      `stages - 1` for a first-same-as-last method.
+    - `implicit`: whether a step solves a nonlinear system (diffrax's
+      `AbstractImplicitSolver`).
+    - `error_estimate`: whether the method has an embedded error estimate, which an
+      adaptive controller needs.
+    - `make_controller`: the default step-size controller (no arguments).
+    - `make_fixed_step_solver`: for implicit methods, the solver to use under a constant
+      step size, whose root finder has tolerances of its own (`None`: `make_solver`).
+    - `description`: one line, for the listing of `lerax-like solvers`.
+    """
 
-SOLVER_PRESETS: tuple[str, ...] = tuple(_PRESETS)
+    name: str
+    make_solver: Callable[[], diffrax.AbstractSolver]
+    order: int
+    stages: int | None
+    evaluations_per_step: int | None
+    implicit: bool
+    error_estimate: bool
+    make_controller: Callable[[], diffrax.AbstractStepSizeController]
+    make_fixed_step_solver: Callable[[], diffrax.AbstractSolver] | None = None
+    description: str = ""
+
+    @property
+    def controller(self) -> str:
+        """The default controller, in words (`"ConstantStepSize"`, `"PID rtol=1e-06 atol=1e-09"`)."""
+        controller = self.make_controller()
+        if isinstance(controller, diffrax.PIDController):
+            return f"PID rtol={float(controller.rtol):.0e} atol={float(controller.atol):.0e}"
+        return type(controller).__name__
+
+
+def _implicit(cls: type[diffrax.AbstractImplicitSolver], root_finder) -> Callable[[], diffrax.AbstractSolver]:
+    return lambda: cls(root_finder=root_finder())
+
+
+def _builtin_presets() -> list[SolverPreset]:
+    constant = diffrax.ConstantStepSize
+
+    def explicit(name, make, order, stages, evaluations, estimate, controller, description):
+        return SolverPreset(name, make, order, stages, evaluations, False, estimate, controller, None, description)
+
+    def implicit(name, cls, order, stages, evaluations, controller, description):
+        return SolverPreset(
+            name, _implicit(cls, _implicit_root_finder), order, stages, evaluations, True, True, controller,
+            _implicit(cls, _fixed_step_root_finder), description,
+        )
+
+    return [
+        explicit("euler", diffrax.Euler, 1, 1, 1, False, constant, "forward Euler; Gymnasium's CartPole step"),
+        explicit("heun", diffrax.Heun, 2, 2, 2, True, constant, "Heun's method (explicit trapezoidal), Euler embedded"),
+        explicit("midpoint", diffrax.Midpoint, 2, 2, 2, True, constant, "explicit midpoint, Euler embedded"),
+        explicit("ralston", diffrax.Ralston, 2, 2, 2, True, constant, "Ralston's second-order method, Euler embedded"),
+        explicit("rk4", RK4, 4, 4, 4, False, constant, "classic Runge-Kutta (Kutta 1901)"),
+        explicit("tsit5", diffrax.Tsit5, 5, 7, 6, True, _adaptive(1e-6, 1e-9), "Tsitouras 5(4), first same as last"),
+        explicit("dopri5", diffrax.Dopri5, 5, 7, 6, True, _adaptive(1e-6, 1e-9), "Dormand-Prince 5(4), first same as last"),
+        explicit("dopri8", diffrax.Dopri8, 8, 14, 13, True, _adaptive(1e-8, 1e-11), "Dormand-Prince 8(7), first same as last"),
+        implicit("implicit_euler", diffrax.ImplicitEuler, 1, 1, None, _adaptive(1e-3, 1e-6), "backward Euler, L-stable"),
+        implicit("kvaerno3", diffrax.Kvaerno3, 3, 4, None, _adaptive(1e-6, 1e-9), "Kvaerno 3(2) ESDIRK, L-stable"),
+        implicit("kvaerno4", diffrax.Kvaerno4, 4, 5, None, _adaptive(1e-6, 1e-9), "Kvaerno 4(3) ESDIRK, L-stable"),
+        implicit("kvaerno5", diffrax.Kvaerno5, 5, 7, None, _adaptive(1e-6, 1e-9), "Kvaerno 5(4) ESDIRK, L-stable"),
+        explicit(
+            "semi_implicit_euler", SemiImplicitEuler, 1, None, 2, False, constant,
+            "symplectic Euler; Gymnasium's Pendulum and MountainCar step",
+        ),
+    ]
+
+
+_REGISTRY: dict[str, SolverPreset] = {preset.name: preset for preset in _builtin_presets()}
+
+SOLVERS: Mapping[str, SolverPreset] = types.MappingProxyType(_REGISTRY)
+"""Every solver preset by name, the built-in ones and those added by `register_solver`."""
+
+
+class _PresetNames(Sequence[str]):
+    """The names in `SOLVERS`, in registration order; follows `register_solver`."""
+
+    def __getitem__(self, index):
+        return tuple(_REGISTRY)[index]
+
+    def __len__(self) -> int:
+        return len(_REGISTRY)
+
+    def __repr__(self) -> str:
+        return repr(tuple(_REGISTRY))
+
+
+SOLVER_PRESETS: Sequence[str] = _PresetNames()
 """Names accepted wherever a solver is: `make_integrator("rk4")`, `CartPole(solver="tsit5")`."""
+
+
+def register_solver(
+    name: str,
+    solver: "Callable[[], diffrax.AbstractSolver] | diffrax.AbstractSolver",
+    *,
+    order: int,
+    stages: int | None = None,
+    implicit: bool | None = None,
+    error_estimate: bool | None = None,
+    stepsize_controller: "Callable[[], diffrax.AbstractStepSizeController] | None" = None,
+    description: str = "",
+    replace: bool = False,
+) -> SolverPreset:
+    """Register a solver under `name`, usable wherever a preset name is.
+
+    - `solver`: a diffrax solver, or a function (a solver class) that builds one with no
+      arguments.
+    - `order`: the method's order of convergence (a positive integer).
+    - `stages`: stages per step (default: read from a Butcher tableau, if it has one).
+    - `implicit`, `error_estimate`: default: read from the solver.
+    - `stepsize_controller`: function returning the default controller (default:
+      `PIDController(rtol=1e-6, atol=1e-9)` with an error estimate, else
+      `ConstantStepSize`).
+    - `replace`: allow replacing an existing preset of that name.
+
+    Returns the `SolverPreset` added to `SOLVERS`.
+    """
+    if not isinstance(name, str) or not name or ":" in name or name != name.strip():
+        raise ValueError(f"name must be a non-empty string without ':' or surrounding spaces, got {name!r}")
+    key = name.lower()
+    if key in _REGISTRY and not replace:
+        raise ValueError(f"a solver preset {key!r} exists already; pass replace=True to replace it")
+    if isinstance(solver, diffrax.AbstractSolver):
+        instance = solver
+        make_solver: Callable[[], diffrax.AbstractSolver] = lambda: instance
+    elif callable(solver):
+        make_solver = solver
+        instance = solver()
+        if not isinstance(instance, diffrax.AbstractSolver):
+            raise TypeError(f"solver must build a diffrax solver with no arguments; it built {instance!r}")
+    else:
+        raise TypeError(f"solver must be a diffrax solver or a function building one, got {solver!r}")
+    if isinstance(order, bool) or not isinstance(order, (int, np.integer)) or order < 1:
+        raise ValueError(f"order must be a positive integer, got {order!r}")
+    tableau = getattr(instance, "tableau", None)
+    if stages is None and isinstance(tableau, diffrax.ButcherTableau):
+        stages = len(tableau.c) + 1
+    if stages is not None and (isinstance(stages, bool) or int(stages) != stages or stages < 1):
+        raise ValueError(f"stages must be a positive integer or None, got {stages!r}")
+    evaluations = None
+    if isinstance(instance, diffrax.AbstractERK) and isinstance(tableau, diffrax.ButcherTableau):
+        evaluations = len(tableau.c) if tableau.fsal else len(tableau.c) + 1
+    elif isinstance(instance, diffrax.Euler):
+        evaluations = 1
+    if implicit is None:
+        implicit = isinstance(instance, diffrax.AbstractImplicitSolver)
+    if error_estimate is None:
+        error_estimate = has_error_estimate(instance)
+    if stepsize_controller is None:
+        stepsize_controller = _adaptive(1e-6, 1e-9) if error_estimate else diffrax.ConstantStepSize
+    preset = SolverPreset(
+        key, make_solver, int(order), None if stages is None else int(stages), evaluations, bool(implicit),
+        bool(error_estimate), stepsize_controller, None, description,
+    )
+    _REGISTRY[key] = preset
+    return preset
+
+
+def unregister_solver(name: str) -> None:
+    """Remove a preset added by `register_solver` (the built-in ones stay)."""
+    key = name.lower()
+    if key in _BUILTIN_NAMES:
+        raise ValueError(f"{key!r} is a built-in preset and cannot be removed")
+    if key not in _REGISTRY:
+        raise ValueError(f"no solver preset {name!r}; registered: {SOLVER_PRESETS}")
+    del _REGISTRY[key]
+
+
+_BUILTIN_NAMES = frozenset(_REGISTRY)
 
 
 def has_error_estimate(solver: diffrax.AbstractSolver) -> bool:
@@ -123,6 +278,98 @@ def has_error_estimate(solver: diffrax.AbstractSolver) -> bool:
         # Not an ODE solver of a single term (e.g. an IMEX `MultiTerm` solver): let
         # diffrax judge at solve time.
         return True
+
+
+def describe_solver(solver: "str | diffrax.AbstractSolver | type[diffrax.AbstractSolver]") -> SolverPreset:
+    """The `SolverPreset` of a preset name, or a record of the same facts about a solver.
+
+    For a solver object (or a solver class, built with no arguments) that is no preset,
+    the facts are read from the solver: its `name` is its class name, its `order` what
+    diffrax's `solver.order(terms)` says (`0` where it says nothing), its stages from its
+    Butcher tableau, its default controller `PIDController(rtol=1e-6, atol=1e-9)` if it
+    has an error estimate, else `ConstantStepSize`.
+    """
+    if isinstance(solver, str):
+        key = solver.lower()
+        if key not in _REGISTRY:
+            raise ValueError(f"solver must be one of {SOLVER_PRESETS} or a diffrax solver, got {solver!r}")
+        return _REGISTRY[key]
+    if isinstance(solver, type) and issubclass(solver, diffrax.AbstractSolver):
+        try:
+            solver = solver()
+        except TypeError as error:
+            raise TypeError(
+                f"the solver class {solver.__name__} cannot be built with no arguments ({error}); "
+                "pass a solver instance instead"
+            ) from None
+    if not isinstance(solver, diffrax.AbstractSolver):
+        raise TypeError(f"solver must be a diffrax solver or one of {SOLVER_PRESETS}, got {solver!r}")
+    for preset in _REGISTRY.values():
+        # A registered solver object is described by its record (and its name).
+        if preset.make_fixed_step_solver is None and type(solver) is type(preset.make_solver()):
+            if eqx.tree_equal(solver, preset.make_solver()) is True:
+                return preset
+    term = diffrax.ODETerm(lambda t, y, args: -y)
+    try:
+        order = solver.order(term)
+    except Exception:  # a solver whose order depends on terms it has not been given
+        order = None
+    tableau = getattr(solver, "tableau", None)
+    stages = len(tableau.c) + 1 if isinstance(tableau, diffrax.ButcherTableau) else None
+    evaluations = None
+    if isinstance(solver, diffrax.AbstractERK) and isinstance(tableau, diffrax.ButcherTableau):
+        evaluations = len(tableau.c) if tableau.fsal else len(tableau.c) + 1
+    elif isinstance(solver, diffrax.Euler):
+        evaluations = 1
+    estimate = has_error_estimate(solver)
+    instance = solver
+    return SolverPreset(
+        type(solver).__name__, lambda: instance, int(order) if order else 0, stages, evaluations,
+        isinstance(solver, diffrax.AbstractImplicitSolver), estimate,
+        _adaptive(1e-6, 1e-9) if estimate else diffrax.ConstantStepSize,
+    )
+
+
+def solver_from_spec(spec: str) -> "str | diffrax.AbstractSolver":
+    """The solver a command line names: a preset name, or `module:attribute`.
+
+    `module:attribute` imports `module` (from `sys.path`, so the current directory and
+    `PYTHONPATH` count) and takes `attribute`: a diffrax solver instance, or a solver class
+    built with no arguments (`diffrax:Bosh3`, `my_methods:RALSTON3`). Returns the preset
+    name (lower case) or the solver instance.
+    """
+    if not isinstance(spec, str) or not spec:
+        raise ValueError(f"solver must be a preset name or 'module:attribute', got {spec!r}")
+    if ":" not in spec:
+        key = spec.lower()
+        if key not in _REGISTRY:
+            raise ValueError(
+                f"unknown solver {spec!r}: give a preset ({', '.join(SOLVER_PRESETS)}) or "
+                "'module:attribute' naming a diffrax solver, e.g. 'diffrax:Bosh3'"
+            )
+        return key
+    module_name, _, attribute = spec.partition(":")
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as error:
+        raise ValueError(f"solver {spec!r}: cannot import module {module_name!r} ({error})") from None
+    value = module
+    for part in attribute.split("."):
+        try:
+            value = getattr(value, part)
+        except AttributeError:
+            raise ValueError(f"solver {spec!r}: module {module_name!r} has no attribute {attribute!r}") from None
+    if isinstance(value, type) and issubclass(value, diffrax.AbstractSolver):
+        try:
+            value = value()
+        except TypeError as error:
+            raise ValueError(
+                f"solver {spec!r}: the class {value.__name__} cannot be built with no arguments ({error}); "
+                "name an instance instead"
+            ) from None
+    if not isinstance(value, diffrax.AbstractSolver):
+        raise ValueError(f"solver {spec!r} names {value!r}, which is no diffrax solver (instance or class)")
+    return value
 
 
 class Integrator(eqx.Module):
@@ -264,6 +511,47 @@ class Integrator(eqx.Module):
         solved = solution.result == diffrax.RESULTS.successful
         return self._finish(solution.ys[-1], solved, steps, rejected, projection)
 
+    def dense_states(
+        self,
+        vector_field: Callable[[ScalarLike, State, Input], State],
+        y0: State,
+        u: Input,
+        dt: ScalarLike,
+        ts: Array,
+        *,
+        projection: Callable[[State], State] | None = None,
+        velocity_indices: tuple[int, ...] | None = None,
+    ) -> tuple[Array, BoolScalar]:
+        """The solver's own dense output of the solve `integrate` makes, at times `ts` in `[0, dt]`.
+
+        Same solver, controller, first step and budget as `integrate`, so the same steps;
+        between them the solver's interpolation (Hermite for the plain Runge--Kutta
+        methods, the methods' own for Tsit5, Dopri5, Dopri8). No projection is applied to
+        the interpolated states. Returns the states, shape `(len(ts), n)`, and whether the
+        solve succeeded.
+        """
+        dt = jnp.asarray(dt, dtype=y0.dtype)
+        dt0 = dt / self.substeps if isinstance(self.stepsize_controller, diffrax.ConstantStepSize) else None
+        if projection is None and velocity_indices is None:
+            term = diffrax.ODETerm(vector_field)
+        else:
+            optional = {} if projection is None else {"projection": projection}
+            term = ProjectedODETerm(vector_field, velocity_indices=velocity_indices, **optional)
+        solution = diffrax.diffeqsolve(
+            term,
+            self.solver,
+            t0=jnp.zeros((), dtype=y0.dtype),
+            t1=dt,
+            dt0=dt0,
+            y0=y0,
+            args=u,
+            saveat=diffrax.SaveAt(ts=jnp.asarray(ts, dtype=y0.dtype)),
+            stepsize_controller=self.stepsize_controller,
+            max_steps=self.max_steps,
+            throw=False,
+        )
+        return solution.ys, solution.result == diffrax.RESULTS.successful
+
     def _step_once(self, term, y0, u, dt, projection):
         solver = self.solver
         if isinstance(solver, diffrax.AbstractERK) and isinstance(solver.tableau, diffrax.ButcherTableau):
@@ -336,17 +624,16 @@ def make_integrator(
         return solver
     if isinstance(solver, str):
         key = solver.lower()
-        if key not in _PRESETS:
+        if key not in _REGISTRY:
             raise ValueError(f"solver must be one of {SOLVER_PRESETS} or a diffrax solver, got {solver!r}")
-        make_solver, make_controller = _PRESETS[key]
+        preset = _REGISTRY[key]
         if stepsize_controller is None:
-            stepsize_controller = make_controller()
-        if key in _IMPLICIT_PRESETS and not isinstance(
-            stepsize_controller, diffrax.AbstractAdaptiveStepSizeController
-        ):
-            solver = _IMPLICIT_PRESETS[key](root_finder=_fixed_step_root_finder())
+            stepsize_controller = preset.make_controller()
+        adaptive = isinstance(stepsize_controller, diffrax.AbstractAdaptiveStepSizeController)
+        if preset.make_fixed_step_solver is not None and not adaptive:
+            solver = preset.make_fixed_step_solver()
         else:
-            solver = make_solver()
+            solver = preset.make_solver()
     return Integrator(
         solver, stepsize_controller, max_steps=max_steps, adjoint=adjoint, substeps=substeps
     )

@@ -3,7 +3,9 @@
 import abc
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
+import numpy as np
 import jax.random as jr
 
 from ._types import Array, ArrayLike, BoolScalar, Key
@@ -17,6 +19,23 @@ class AbstractSpace(eqx.Module):
     @abc.abstractmethod
     def contains(self, x: ArrayLike) -> BoolScalar:
         """Whether `x` lies in the space (traceable: returns a boolean array)."""
+
+    @abc.abstractmethod
+    def check(self, x: ArrayLike, name: str) -> Array:
+        """`x` as an array, refused (`TypeError`, naming `name` and the space) if its shape
+        or dtype does not fit the space. Shapes and dtypes are known at trace time, so this
+        fails when a jitted function is traced, not deep inside JAX."""
+
+    @abc.abstractmethod
+    def admissible(self, x: Array) -> BoolScalar:
+        """Whether `x`, of fitting shape and dtype (`check`), can be applied (traceable):
+        a discrete action in range, a continuous one finite. A continuous action outside
+        the box is admissible: the scenes clip it, as Gymnasium's envs do."""
+
+    @property
+    @abc.abstractmethod
+    def rule(self) -> str:
+        """What `admissible` requires, in words, for error messages."""
 
 
 class Discrete(AbstractSpace):
@@ -40,6 +59,25 @@ class Discrete(AbstractSpace):
         x = jnp.asarray(x)
         integral = jnp.issubdtype(x.dtype, jnp.integer) | jnp.all(x == jnp.round(x))
         return (x.shape == ()) & integral & (x >= 0) & (x < self.n)
+
+    def check(self, x: ArrayLike, name: str) -> Array:
+        x = _as_array(x, name, self)
+        if x.shape != () or not jnp.issubdtype(x.dtype, jnp.integer):
+            raise TypeError(
+                f"{name} must be an integer scalar (shape (), an integer dtype) of {self}, "
+                f"got shape {x.shape} and dtype {x.dtype}"
+            )
+        return x
+
+    def admissible(self, x: Array) -> BoolScalar:
+        return (x >= 0) & (x < self.n)
+
+    @property
+    def rule(self) -> str:
+        return f"an integer from 0 to {self.n - 1}"
+
+    def __str__(self) -> str:
+        return f"Discrete({self.n})"
 
 
 class Box(AbstractSpace):
@@ -81,6 +119,40 @@ class Box(AbstractSpace):
         if x.shape != self.shape:
             return jnp.asarray(False)
         return jnp.all((x >= self.low) & (x <= self.high))
+
+    def check(self, x: ArrayLike, name: str) -> Array:
+        """As the abstract method; a one-element box also takes a scalar (`0.5` for shape
+        `(1,)`), which the scenes' `physical_input` reshape."""
+        x = _as_array(x, name, self)
+        real = jnp.issubdtype(x.dtype, jnp.floating) or jnp.issubdtype(x.dtype, jnp.integer)
+        shape_fits = x.shape == self.shape or (x.shape == () and self.shape == (1,))
+        if not (real and shape_fits):
+            raise TypeError(
+                f"{name} must be a real array of shape {self.shape} of {self}, "
+                f"got shape {x.shape} and dtype {x.dtype}"
+            )
+        return x
+
+    def admissible(self, x: Array) -> BoolScalar:
+        return jnp.all(jnp.isfinite(x))
+
+    @property
+    def rule(self) -> str:
+        return "finite in every entry (entries outside the bounds are clipped)"
+
+    def __str__(self) -> str:
+        # The bounds may be traced (a scene's torque limit under jit): shown only when concrete.
+        bounds = ""
+        if not isinstance(self.low, jax.core.Tracer) and not isinstance(self.high, jax.core.Tracer):
+            bounds = f"low={np.asarray(self.low).tolist()}, high={np.asarray(self.high).tolist()}, "
+        return f"Box({bounds}shape={self.shape})"
+
+
+def _as_array(x: ArrayLike, name: str, space: AbstractSpace) -> Array:
+    try:
+        return jnp.asarray(x)
+    except TypeError as error:
+        raise TypeError(f"{name} must be an element of {space}, got {x!r}") from error
 
 
 __all__ = ["AbstractSpace", "Box", "Discrete"]

@@ -35,3 +35,13 @@ def getkey():
 
 
 __all__ = ["jnp", "relative_error", "tree_allclose"]
+
+
+def pytest_collection_modifyitems(config, items):
+    # Every notebook run by nbmake trains, fits or studies something: all take more than
+    # about 20 s on 2 cores, so all leave the quick loop (python -m pytest -m "not slow").
+    # (Here rather than in notebooks/: a second module named conftest would shadow this
+    # one for the tests' `from conftest import ...`; the top level is fixed.)
+    for item in items:
+        if item.path.suffix == ".ipynb":
+            item.add_marker(pytest.mark.slow)

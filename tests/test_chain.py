@@ -277,12 +277,25 @@ def test_three_link_lengths_recovered_within_one_percent(getkey):
     assert float(jnp.max(jnp.abs(fitted.dynamics.lengths - 3.0) / 3.0)) < 0.01
 
 
+@pytest.mark.slow
 def test_adaptive_mpc_swings_up_double_cartpole():
     """Experiment 2 (IDS): iLQR-MPC through a model 20% off fails, refits, then swings up.
 
     Same run as notebooks/double_cartpole_adaptive_mpc.ipynb (the budget is the run).
     """
-    from lerax_like.control.mpc import adaptive_mpc
+    from lerax_like.control.mpc import adaptive_mpc, make_planner
+
+    # The notebook's task: both poles up, the cart near the centre, all calm.
+    def stage_cost(y, action):
+        _, theta1, theta2 = y[:3]
+        height = (1 - jnp.cos(theta1)) + (1 - jnp.cos(theta2))
+        return 2.0 * height + 0.05 * y[0] ** 2 + 0.05 * jnp.sum(y[3:] ** 2) + 0.01 * jnp.sum(action**2)
+
+    def terminal_cost(y):
+        return 20.0 * stage_cost(y, jnp.zeros((1,), dtype=y.dtype))
+
+    def upright(y):
+        return jnp.all(jnp.abs((y[1:3] + jnp.pi) % (2 * jnp.pi) - jnp.pi) < 0.3)
 
     settings = dict(task="swing_up", dt=0.05, solver="rk4")
     real = ll.DoubleCartPole(**settings)
@@ -291,7 +304,10 @@ def test_adaptive_mpc_swings_up_double_cartpole():
     def parameters(env):
         return (env.dynamics.cart_mass, env.dynamics.pole_masses, env.dynamics.pole_lengths)
 
-    report = adaptive_mpc(real, model, parameters, key=jax.random.key(0), max_episodes=3)
+    planner = make_planner(stage_cost, terminal_cost)
+    report = adaptive_mpc(
+        real, model, parameters, key=jax.random.key(0), planner=planner, success=upright, max_episodes=3
+    )
     assert report["succeeded"]
     # The refit recovers the real parameters from the failed episode's transitions.
     for estimate, truth in zip(report["estimates"][-1], parameters(real)):

@@ -11,6 +11,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 from hypothesis import given, settings, strategies as st
 
 import lerax_like as ll
@@ -25,7 +26,7 @@ def _run(env, y0, actions, key):
         next_state, observation, reward, terminated, truncated, info = env.step(state, action, key=step_key)
         # The raw solve from the pre-step state, outside the env's safety net.
         raw, _ = env.integrator.integrate(
-            env.dynamics.vector_field, state.y, env.physical_input(action), env.dt
+            env.physics.vector_field, state.y, env.physical_input(action), env.dt
         )
         record = dict(
             observation=observation, reward=reward, terminated=terminated, truncated=truncated,
@@ -69,6 +70,8 @@ def test_explicit_euler_divergence_is_flagged_and_ends_the_episode():
 class _NaNWindow(ll.AbstractDynamics):
     """Decays, except that the field is NaN for `0.25 <= t < 0.35`, then decays again."""
 
+    velocity_indices = None
+
     def vector_field(self, t, y, u):
         inside = (t >= 0.25) & (t < 0.35)
         return jnp.where(inside, jnp.nan, -y)
@@ -104,12 +107,16 @@ def test_budget_exhaustion_under_vmap_is_reported_per_env():
 
 
 class _Decay(ll.AbstractDynamics):
+    velocity_indices = None
+
     def vector_field(self, t, y, u):
         return -y + u
 
 
 class _ExponentialReward(ll.AbstractEnv):
     """A test scene whose finite states can overflow in the reward: exp(x)."""
+
+    stochastic = False
 
     dynamics: _Decay
     integrator: ll.Integrator
@@ -124,8 +131,9 @@ class _ExponentialReward(ll.AbstractEnv):
     def observation_space(self):
         return ll.Box(-jnp.inf, jnp.inf, (1,))
 
-    def initial(self, *, key):
-        return ll.EnvState(y=jnp.zeros(1), steps=jnp.zeros((), dtype=int))
+    @property
+    def initial_bounds(self):
+        return jnp.zeros(1), jnp.zeros(1)
 
     def physical_input(self, action):
         return action
@@ -135,6 +143,10 @@ class _ExponentialReward(ll.AbstractEnv):
 
     def reward(self, state, action, next_state, *, key):
         return jnp.exp(next_state.y[0])
+
+    @property
+    def worst_reward(self):
+        return jnp.zeros(())
 
     def terminal(self, state, *, key):
         return jnp.asarray(False)
@@ -146,7 +158,7 @@ def test_overflowing_reward_is_flagged_and_replaced():
     record = _run_jit(env, jnp.array([1e3]), jnp.zeros((2, 1)), jax.random.key(0))
     assert not bool(record["solver_ok"][0]) and bool(record["raw_finite"][0])
     assert bool(record["terminated"][0])
-    assert float(record["reward"][0]) == 0.0
+    assert float(record["reward"][0]) == float(env.worst_reward) == 0.0
     assert np.all(np.isfinite(np.asarray(record["final_observation"])))
     # The autoreset put the env at x = 0, where the reward is 1 again.
     assert bool(record["solver_ok"][1]) and float(record["reward"][1]) == 1.0
@@ -228,3 +240,121 @@ def test_gymnasium_layer_flags_divergence_and_returns_finite_float32():
         if terminated:
             break
     assert terminated and not info["solver_ok"]
+
+
+# -- Failures pay nothing an agent wants, for every registered scene ------------------------
+#
+# Each scene declares `worst_reward`, a lower bound of its regular rewards, and a failed
+# step pays it. Checked for every scene of `lerax_like.SCENES`, in every variant of its
+# static options (`CartPole(sutton_barto_reward=True)`, `DoubleCartPole(task="swing_up")`):
+# regular rewards over random states and actions never fall below the bound, and a forced
+# failure pays at most the bound, terminates and returns a finite observation.
+
+
+def _variants():
+    import dataclasses
+
+    for name, scene in ll.SCENES.items():
+        yield name, {}
+        for field in dataclasses.fields(scene):
+            for choice in field.metadata.get("choices") or ():
+                if choice != field.default:
+                    yield name, {field.name: choice}
+
+
+VARIANTS = list(_variants())
+VARIANT_IDS = [f"{name}-{'-'.join(f'{k}={v}' for k, v in options.items()) or 'default'}" for name, options in VARIANTS]
+
+
+def _random_actions(env, key, shape):
+    return jax.vmap(lambda k: env.action_space.sample(key=k))(jax.random.split(key, np.prod(shape))).reshape(
+        *shape, *env.action_space.shape
+    )
+
+
+@eqx.filter_jit
+def _regular_rewards(env, key, num_states=256):
+    """Rewards of one step from random states under random actions, with whether each was regular."""
+    low, high = env.initial_bounds
+    wide_key, start_key, action_key, step_key = jax.random.split(key, 4)
+    # States far from the usual starts (up to 10 units each way), made admissible by the
+    # scene's own projection, and the usual starts.
+    wide = (low + high) / 2 + jax.random.uniform(wide_key, (num_states, low.size), minval=-10.0, maxval=10.0)
+    wide = jax.vmap(env.project)(wide)
+    usual = jax.vmap(lambda k: env.initial(key=k).y)(jax.random.split(start_key, num_states))
+    states = jnp.concatenate([wide, usual])
+    actions = _random_actions(env, action_key, (states.shape[0],))
+
+    def one(y, action, key):
+        state = ll.EnvState(y=y, steps=jnp.zeros((), dtype=int))
+        _, _, reward, _, info = env.advance(state, action, key=key)
+        return reward, info["solver_ok"] & info["action_ok"]
+
+    return jax.vmap(one)(states, actions, jax.random.split(step_key, states.shape[0]))
+
+
+@pytest.mark.parametrize("name, options", VARIANTS, ids=VARIANT_IDS)
+def test_worst_reward_bounds_every_regular_reward(name, options):
+    env = ll.SCENES[name](**options)
+    rewards, regular = _regular_rewards(env, jax.random.key(0))
+    rewards, regular = np.asarray(rewards), np.asarray(regular)
+    assert regular.mean() > 0.5, "most sampled steps should be regular"
+    worst = float(env.worst_reward)
+    assert np.isfinite(worst)
+    assert rewards[regular].min() >= worst, (rewards[regular].min(), worst)
+
+
+def _inadmissible_action(env):
+    space = env.action_space
+    if isinstance(space, ll.Discrete):
+        return jnp.asarray(space.n)
+    return jnp.full(space.shape, jnp.nan)
+
+
+def _nan_dynamics(env):
+    dynamics = jax.tree.map(lambda leaf: jnp.full_like(leaf, jnp.nan) if eqx.is_array(leaf) else leaf, env.dynamics)
+    return eqx.tree_at(lambda e: e.dynamics, env, dynamics)
+
+
+def _overflowing(env, state):
+    # A state of 1e300 moved by its velocity of 1e300 for 1e10 time units overflows.
+    return eqx.tree_at(lambda e: e.dt, env, jnp.asarray(1e10)), ll.EnvState(y=jnp.full_like(state.y, 1e300), steps=state.steps)
+
+
+FAILURES = ("inadmissible action", "nan dynamics", "overflow")
+
+# One compilation per scene variant serves the three failures (same structure and shapes).
+_advance = eqx.filter_jit(lambda env, state, action: env.advance(state, action, key=jax.random.key(5)))
+
+
+@pytest.mark.parametrize("failure", FAILURES)
+@pytest.mark.parametrize("name, options", VARIANTS, ids=VARIANT_IDS)
+def test_a_forced_failure_pays_at_most_the_worst_reward(name, options, failure):
+    env = ll.SCENES[name](**options)
+    state = env.reset(key=jax.random.key(3))[0]
+    action = env.action_space.sample(key=jax.random.key(4))
+    if failure == "inadmissible action":
+        action = _inadmissible_action(env)
+    elif failure == "nan dynamics":
+        env = _nan_dynamics(env)
+    elif env.projects_state():
+        pytest.skip("the scene clips its state, which cannot overflow")
+    else:
+        env, state = _overflowing(env, state)
+    worst = float(env.worst_reward)
+    next_state, observation, reward, terminated, info = _advance(env, state, action)
+    # The failure happened, and was reported.
+    if failure == "inadmissible action":
+        assert not bool(info["action_ok"])
+    else:
+        assert not bool(info["solver_ok"])
+    assert float(reward) <= worst
+    assert bool(terminated)
+    assert np.all(np.isfinite(np.asarray(observation)))
+    np.testing.assert_array_equal(next_state.y, state.y)
+
+
+def test_overflow_covers_every_scene_that_does_not_clip_its_state():
+    # The overflow case above runs for these; the others clip or wrap their state.
+    unclipped = {name for name, scene in ll.SCENES.items() if not scene.projects_state()}
+    assert unclipped >= {"CartPole", "CartPoleContinuous", "VanDerPol", "DoubleCartPole"}

@@ -5,6 +5,7 @@ import json
 
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 import lerax_like as ll
 from lerax_like.analysis import GRADIENT_CSV_COLUMNS, gradient_scenes
@@ -35,6 +36,7 @@ def test_euler_gradient_is_first_order_and_can_have_the_wrong_sign():
     assert min(abs(euler[92]), abs(reference[92])) > 1.0
 
 
+@pytest.mark.slow
 def test_quick_gradient_study_writes_rows_at_the_solvers_orders(tmp_path):
     assert main(["gradients", "CartPole", "--quick", "--out", str(tmp_path), "--no-plot"]) == 0
     assert sorted(path.name for path in tmp_path.iterdir()) == ["CartPole_gradients.csv", "CartPole_gradients.json"]

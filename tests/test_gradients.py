@@ -229,6 +229,7 @@ def _both_cases(tree, env):
 VAN_DER_POL_CASES = {"mu": jnp.array([1.0, 1000.0]), "y0": jnp.array([[2.0, 0.0], [2.0, 0.0]])}
 
 
+@pytest.mark.slow
 def test_plain_backsolve_adjoint_is_silently_wrong_on_stiff_van_der_pol():
     env = ll.VanDerPol(dt=1.0, solver="kvaerno5")
     # The default adjoint agrees with finite differences in both cases.
@@ -254,6 +255,7 @@ def test_plain_backsolve_adjoint_is_silently_wrong_on_stiff_van_der_pol():
     assert relative_error[1] > 10, relative_error
 
 
+@pytest.mark.slow
 def test_named_backsolve_adjoint_raises_on_stiff_van_der_pol():
     # make_adjoint("backsolve") gives its backward solve throw=True: the exhausted budget
     # of the stiff case is raised instead of passed off as a gradient.

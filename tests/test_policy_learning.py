@@ -1,20 +1,36 @@
 """Policy learning through the simulator (the notebook `policy_learning.ipynb`)."""
 
+import math
+
+import equinox as eqx
 import jax.numpy as jnp
 import jax.random as jr
+import pytest
 
 import lerax_like as ll
-from lerax_like.control.domain_randomisation import HORIZONS, NOMINAL_MASS, train_balancing_policy
-from lerax_like.control.learning import MLPPolicy, episode_lengths, policy_return
+from lerax_like.control.learning import MLPPolicy, episode_lengths, policy_return, train_policy_curriculum
 from lerax_like.env import EnvState
 
 from conftest import relative_error
 
 
+@pytest.mark.slow
 def test_policy_trained_through_the_simulator_balances_for_500_steps():
     # The notebook's recipe (1024 envs, a horizon curriculum, a cart cost), another seed.
-    policy, history = train_balancing_policy(NOMINAL_MASS, key=jr.key(2), num_envs=1024)
-    assert float(history[-1][-1]) / HORIZONS[-1] > float(history[0][0]) / HORIZONS[0]
+    num_envs, horizons = 1024, (50, 100, 200)
+    envs = eqx.filter_vmap(
+        lambda mass: ll.CartPoleContinuous(
+            pole_mass=mass, reward="smooth", theta_threshold_radians=math.inf, x_threshold=math.inf
+        )
+    )(jnp.full((num_envs,), 0.1))
+    policy_key, training_key = jr.split(jr.key(2))
+    policy, history = train_policy_curriculum(
+        envs, MLPPolicy(4, 1, width=32, key=policy_key), key=training_key, num_envs=num_envs,
+        horizons=horizons, iterations=(60, 30, 30), learning_rates=(3e-3, 1e-3, 1e-3),
+        initial_spread=jnp.array([0.5, 0.5, 0.1, 0.1]), env_axis=0,
+        state_cost=lambda y: 0.1 * y[0] ** 2 + 0.1 * y[1] ** 2,
+    )
+    assert float(history[-1][-1]) / horizons[-1] > float(history[0][0]) / horizons[0]
     # Different starts from the notebook's: 100 episodes of the ordinary env.
     lengths = episode_lengths(ll.CartPoleContinuous(), policy, key=jr.key(7), num_starts=100, max_steps=500)
     assert float(jnp.mean(lengths >= 500)) >= 0.95

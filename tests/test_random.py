@@ -38,12 +38,16 @@ def test_uniform_shapes_and_dtypes():
 
 
 class _Drift(ll.AbstractDynamics):
+    velocity_indices = None
+
     def vector_field(self, t, y, u):
         return u
 
 
 class _NoisyObservation(ll.AbstractEnv):
     """Sees its state through noise drawn with the observation's key."""
+
+    stochastic = True
 
     dynamics: _Drift
     integrator: ll.Integrator
@@ -58,6 +62,11 @@ class _NoisyObservation(ll.AbstractEnv):
     def observation_space(self):
         return ll.Box(-jnp.inf, jnp.inf, (1,))
 
+    @property
+    def initial_bounds(self):
+        # Unused by its Gaussian start (`initial`), but they give the state's shape.
+        return jnp.zeros(1), jnp.zeros(1)
+
     def initial(self, *, key):
         return ll.EnvState(y=jr.normal(key, (1,)), steps=jnp.zeros((), dtype=int))
 
@@ -68,6 +77,10 @@ class _NoisyObservation(ll.AbstractEnv):
         return state.y + jr.normal(key, (1,))
 
     def reward(self, state, action, next_state, *, key):
+        return jnp.zeros(())
+
+    @property
+    def worst_reward(self):
         return jnp.zeros(())
 
     def terminal(self, state, *, key):

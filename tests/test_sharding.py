@@ -11,6 +11,8 @@ import pathlib
 import subprocess
 import sys
 
+import pytest
+
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
@@ -114,6 +116,7 @@ print("RESULTS" + json.dumps(results))
 """
 
 
+@pytest.mark.slow
 def test_sharded_rollouts_match_unsharded():
     environment = {**os.environ, "XLA_FLAGS": "--xla_force_host_platform_device_count=4", "JAX_PLATFORMS": "cpu"}
     completed = subprocess.run(

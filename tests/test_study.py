@@ -75,6 +75,7 @@ def _read(out):
         return list(csv.DictReader(file))
 
 
+@pytest.mark.slow
 def test_quick_study_writes_csv_png_json(quick_study):
     rows = _read(quick_study)
     required = {"scene", "solver", "controller", "dt", "rtol", "atol", "error", "seconds", "steps",
@@ -100,6 +101,7 @@ def test_quick_study_writes_csv_png_json(quick_study):
     assert record["reference"]["method"] == "DOP853"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("solver, order", [("euler", 1), ("rk4", 4)])
 def test_quick_study_gives_the_orders(quick_study, solver, order):
     for schedule in ("recorded", "zero"):

@@ -15,7 +15,10 @@ from .gradient_accuracy import (
     run_gradient_study as run_gradient_study,
     sensitivity_signs as sensitivity_signs,
 )
-from .reference import reference_trajectories as reference_trajectories
+from .reference import (
+    dense_reference_trajectories as dense_reference_trajectories,
+    reference_trajectories as reference_trajectories,
+)
 from .report import (
     CSV_COLUMNS as CSV_COLUMNS,
     GRADIENT_CSV_COLUMNS as GRADIENT_CSV_COLUMNS,
@@ -40,4 +43,5 @@ from .study import (
     default_sweeps as default_sweeps,
     evaluations_per_step as evaluations_per_step,
     run_study as run_study,
+    sweeps_for as sweeps_for,
 )

@@ -30,6 +30,37 @@ def fit_order(
     return float(slope), int(np.count_nonzero(keep))
 
 
+def why_no_order(
+    step_sizes: Sequence[float], errors: Sequence[float], *, floor: float, ceiling: float
+) -> str:
+    """In words, why fewer than two errors lie in the asymptotic range `(floor, ceiling)`."""
+    pairs = sorted(
+        ((h, e) for h, e in zip(step_sizes, errors) if math.isfinite(e)), key=lambda pair: pair[0], reverse=True
+    )
+    if not pairs:
+        return "not measured: every solve failed"
+    values = [e for _, e in pairs]
+    span = f"errors {min(values):.2g} to {max(values):.2g} at steps {pairs[0][0]:.3g} to {pairs[-1][0]:.3g}"
+    if all(e >= ceiling for e in values):
+        words = (
+            f"not in the asymptotic range: {span}, all above {ceiling:g}, so no order can be fitted; "
+            "smaller steps are needed"
+        )
+        falling = all(b <= a for a, b in zip(values, values[1:]))
+        if not falling:
+            words += (
+                " (the error does not fall steadily as the step shrinks: at these steps the solution is "
+                "qualitatively wrong, e.g. a pendulum near its separatrix ending a turn away)"
+            )
+        return words
+    if all(e <= floor for e in values):
+        return f"not measured: {span}, all at or below the reference and round-off floor {floor:.1g}"
+    return (
+        f"not measured: {span}, fewer than two of them between the floor {floor:.1g} and {ceiling:g}; "
+        "a finer sweep of steps is needed"
+    )
+
+
 def convergence_orders(rows: Iterable[dict[str, Any]], *, ceiling: float = 1e-2) -> list[dict[str, Any]]:
     """Per schedule and fixed-step solver: fitted orders of the error and of the invariant drifts.
 
@@ -49,9 +80,13 @@ def convergence_orders(rows: Iterable[dict[str, Any]], *, ceiling: float = 1e-2)
         step_sizes = [row["dt"] for row in group]
         floor = max(10 * max(row["reference_floor"] for row in group), ROUNDOFF_FLOOR)
         entry = {"scene": scene, "schedule": schedule, "solver": solver}
-        entry["order"], entry["points"] = fit_order(
-            step_sizes, [row["error"] for row in group], floor=floor, ceiling=ceiling
-        )
+        errors = [row["error"] for row in group]
+        entry["order"], entry["points"] = fit_order(step_sizes, errors, floor=floor, ceiling=ceiling)
+        if "order" in group[0] and not math.isnan(group[0]["order"]):
+            entry["method_order"] = group[0]["order"]
+        if entry["points"] < 2:
+            entry["order"] = None  # JSON null, not NaN: there is no measurement
+            entry["note"] = why_no_order(step_sizes, errors, floor=floor, ceiling=ceiling)
         if "max_error" in group[0]:
             entry["max_error_order"], _ = fit_order(
                 step_sizes, [row["max_error"] for row in group], floor=floor, ceiling=ceiling
@@ -61,5 +96,8 @@ def convergence_orders(rows: Iterable[dict[str, Any]], *, ceiling: float = 1e-2)
             if all(math.isnan(v) for v in values):
                 continue
             entry[f"{name}_order"], _ = fit_order(step_sizes, values, floor=ROUNDOFF_FLOOR, ceiling=ceiling)
+        for name, value in entry.items():
+            if name.endswith("order") and isinstance(value, float) and math.isnan(value):
+                entry[name] = None  # JSON null, not NaN: nothing was measured
         orders.append(entry)
     return orders

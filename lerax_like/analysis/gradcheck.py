@@ -81,7 +81,7 @@ class GradCheckReport:
     __repr__ = __str__
 
 
-def _selection(tree, where):
+def selection_spec(tree, where):
     """A filter spec: True on the inexact array leaves of `where(tree)` (all of `tree` if None)."""
     if where is None:
         return jax.tree.map(eqx.is_inexact_array, tree)
@@ -124,7 +124,7 @@ def gradcheck(
         raise RuntimeError("gradcheck needs float64: set jax.config.update('jax_enable_x64', True)")
     if mode not in ("reverse", "forward"):
         raise ValueError(f"mode must be 'reverse' or 'forward', got {mode!r}")
-    params, static = eqx.partition(tree, _selection(tree, where))
+    params, static = eqx.partition(tree, selection_spec(tree, where))
     flat, unravel = ravel_pytree(params)
     if flat.size == 0:
         raise ValueError("nothing to differentiate: no floating-point array leaves selected")

@@ -29,10 +29,10 @@ from .._checks import check_count
 from .._types import Array, BoolScalar, Float, Scalar, State
 from ..env import AbstractEnv, EnvState, rollout
 from ..gradients import with_adjoint
-from ..integrate import Integrator, make_integrator
-from .gradcheck import _selection
+from ..integrate import Integrator, describe_solver, make_integrator
+from .gradcheck import selection_spec
 from .scenes import SCENES, make_scene
-from .study import SolverSweep, StudyResult, _tolerance_pairs, environment_record
+from .study import SolverSweep, StudyResult, environment_record, tolerance_pairs
 
 
 Loss = Callable[[AbstractEnv], tuple[Scalar, BoolScalar]]
@@ -166,7 +166,7 @@ def gradient_work_precision(
         env_i = with_integrator(env, integrator)
         if adjoint is not None:
             env_i = with_adjoint(env_i, adjoint)
-        return eqx.partition(env_i, _selection(env_i, where))
+        return eqx.partition(env_i, selection_spec(env_i, where))
 
     reference_gradient = _gradient_function(loss, "forward")
     g_ref, ok = reference_gradient(*parts(reference_integrator(reference_rtol), "forward"))
@@ -229,17 +229,34 @@ def default_gradient_sweeps(*, quick: bool = False) -> tuple[SolverSweep, ...]:
         return (
             SolverSweep("euler", substeps=(1, 4)),
             SolverSweep("rk4", substeps=(1, 4)),
-            SolverSweep("tsit5", tolerances=_tolerance_pairs([4, 8])),
+            SolverSweep("tsit5", tolerances=tolerance_pairs([4, 8])),
         )
     powers = (1, 2, 4, 8, 16, 32)
     return (
         SolverSweep("euler", substeps=powers),
         SolverSweep("midpoint", substeps=powers),
         SolverSweep("rk4", substeps=powers),
-        SolverSweep("tsit5", tolerances=_tolerance_pairs([3, 5, 7, 9])),
-        SolverSweep("dopri5", tolerances=_tolerance_pairs([3, 5, 7, 9])),
-        SolverSweep("kvaerno5", tolerances=_tolerance_pairs([3, 5, 7, 9])),
+        SolverSweep("tsit5", tolerances=tolerance_pairs([3, 5, 7, 9])),
+        SolverSweep("dopri5", tolerances=tolerance_pairs([3, 5, 7, 9])),
+        SolverSweep("kvaerno5", tolerances=tolerance_pairs([3, 5, 7, 9])),
     )
+
+
+def gradient_sweeps_for(solvers: Sequence[Any], *, quick: bool = False) -> tuple[SolverSweep, ...]:
+    """The sweeps of `lerax-like gradients --solver NAME ...`.
+
+    A solver without an error estimate over substeps, one with an estimate over substeps
+    and tolerances (as `lerax-like study --solver`).
+    """
+    substeps = (1, 4) if quick else (1, 2, 4, 8, 16, 32)
+    exponents = [4, 8] if quick else [3, 5, 7, 9]
+    sweeps = []
+    for solver in solvers:
+        name = describe_solver(solver).name
+        sweeps.append(SolverSweep(solver, substeps=substeps, name=name))
+        if describe_solver(solver).error_estimate:
+            sweeps.append(SolverSweep(solver, tolerances=tolerance_pairs(exponents), name=name))
+    return tuple(sweeps)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -367,14 +384,14 @@ def _run_gradient_study(config: GradientStudyConfig) -> StudyResult:
     )
     for (sweep, _), row in zip(settings, rows):
         row.update(
-            scene=config.scene, solver=sweep.solver, mode=config.mode, horizon=config.horizon,
+            scene=config.scene, solver=sweep.name, mode=config.mode, horizon=config.horizon,
             reference_rtol=config.reference_rtol, reference_floor=reference["floor"],
         )
     record = {
         "config": {
             "scene": config.scene,
             "scene_kwargs": config.scene_kwargs,
-            "sweeps": [dataclasses.asdict(sweep) for sweep in sweeps],
+            "sweeps": [sweep.record() for sweep in sweeps],
             "horizon": config.horizon,
             "seed": config.seed,
             "parameters": config.parameters,

@@ -48,6 +48,34 @@ def reference_trajectories(
 
     Everything is float64, whatever the dtype of the study.
     """
+    return _solve(dynamics, y0s, inputs, dt, method=method, rtol=rtol, atol=atol, fractions=None)[0]
+
+
+def dense_reference_trajectories(
+    dynamics,
+    y0s: np.ndarray,
+    inputs: np.ndarray,
+    dt: float,
+    fractions: np.ndarray,
+    *,
+    method: str = "DOP853",
+    rtol: float = 1e-13,
+    atol: float = 1e-13,
+) -> tuple[np.ndarray, np.ndarray]:
+    """As `reference_trajectories`, and the states inside each env step from SciPy's dense output.
+
+    `fractions`, in `(0, 1)`: the times `k dt + fractions[j] dt` inside env step `k`
+    where the reference is evaluated, by the method's own continuous extension
+    (`solve_ivp(..., dense_output=True)`, from the same solve). Returns the states after
+    each env step, shape `(B, T, n)`, and inside, shape `(B, T, len(fractions), n)`.
+    """
+    fractions = np.asarray(fractions, dtype=np.float64)
+    if fractions.ndim != 1 or np.any(fractions <= 0) or np.any(fractions >= 1):
+        raise ValueError(f"fractions must be a 1-d array of values in (0, 1), got {fractions}")
+    return _solve(dynamics, y0s, inputs, dt, method=method, rtol=rtol, atol=atol, fractions=fractions)
+
+
+def _solve(dynamics, y0s, inputs, dt, *, method, rtol, atol, fractions):
     import jax
     import jax.numpy as jnp
 
@@ -55,6 +83,7 @@ def reference_trajectories(
     y0s = np.asarray(y0s, dtype=np.float64)
     batch, size = y0s.shape
     inputs = np.asarray(inputs, dtype=np.float64)
+    dense = fractions is not None
 
     with jax.enable_x64(True):
         # The reference is float64 whatever the study's dtype.
@@ -76,11 +105,17 @@ def reference_trajectories(
         options = {"jac": jac} if method in IMPLICIT_METHODS else {}
         y = np.reshape(y0s, (-1,))
         states = np.empty((len(inputs), batch * size), dtype=np.float64)
+        inside = np.empty((len(inputs), len(fractions) if dense else 0, batch * size), dtype=np.float64)
         for k, u in enumerate(inputs):
-            solution = solve_ivp(f, (0.0, float(dt)), y, method=method, rtol=rtol, atol=atol, args=(u,), **options)
+            solution = solve_ivp(
+                f, (0.0, float(dt)), y, method=method, rtol=rtol, atol=atol, args=(u,), dense_output=dense, **options
+            )
             if not solution.success:
                 raise RuntimeError(f"reference solve ({method}) failed at env step {k}: {solution.message}")
             y = solution.y[:, -1]
             states[k] = y
-    return np.transpose(np.reshape(states, (len(inputs), batch, size)), (1, 0, 2))
-
+            if dense:
+                inside[k] = solution.sol(fractions * float(dt)).T
+    states = np.transpose(np.reshape(states, (len(inputs), batch, size)), (1, 0, 2))
+    inside = np.transpose(np.reshape(inside, (len(inputs), inside.shape[1], batch, size)), (2, 0, 1, 3))
+    return states, inside

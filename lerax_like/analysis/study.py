@@ -2,12 +2,15 @@
 
 A study takes a scene, a batch of initial states, action schedules, a horizon in env
 steps, and solver sweeps (substeps for fixed-step solvers, paired `rtol`/`atol` for
-adaptive ones). For each setting it integrates the batch through the env's own
-integrator (`env.integrator.integrate` over `[0, dt]` per env step, the input held, as
-`env.transition` does), and measures
+adaptive ones) of any solver: a preset name, a diffrax solver, or a solver registered
+with `lerax_like.register_solver`. For each setting it integrates the batch through the
+env's own step (`env.evolve` over `[0, dt]` per env step, the input held), and measures
 
 - the error against an independent SciPy reference, at the final time and maximal over
-  the trajectory (max norm over state components and initial states);
+  the env-step ends (max norm over state components and initial states);
+- the dense errors, as DiffEqDevTools' `L2` and `Linf`: root mean square and maximum over
+  a grid of `dense_points` times per env step (its end included), from the solver's own
+  dense output against the reference's (`solve_ivp(dense_output=True)`);
 - the run time of the whole batch under `vmap` (compiled first, `block_until_ready`,
   minimum of repeats);
 - solver steps and vector-field evaluations, the machine-independent cost;
@@ -29,10 +32,10 @@ import jax.random as jr
 import numpy as np
 
 from ..env import AbstractEnv, EnvState
-from ..integrate import Integrator, make_integrator
+from ..integrate import Integrator, describe_solver, make_integrator
 from ..spaces import Box, Discrete
-from .reference import reference_trajectories
-from .scenes import make_scene, reference_method
+from .reference import dense_reference_trajectories
+from .scenes import SCENES, make_scene, reference_method
 
 
 SCHEDULES = ("zero", "constant", "recorded")
@@ -42,25 +45,49 @@ SCHEDULES = ("zero", "constant", "recorded")
 class SolverSweep:
     """One line of a work-precision diagram: a solver and the settings it is run at.
 
-    - `solver`: a preset name of `make_integrator` (`"euler"`, `"rk4"`, `"tsit5"`, ...).
+    - `solver`: a preset name of `make_integrator` (`"euler"`, `"rk4"`, `"tsit5"`, or one
+      added by `register_solver`), a diffrax solver, or a diffrax solver class (built with
+      no arguments).
     - `substeps`: constant-step runs, `substeps` equal steps per env step (step size
       `env.dt / substeps`).
     - `tolerances`: adaptive runs with `PIDController(rtol, atol)`, one per pair.
+    - `name`: how the outputs name the solver (default: the preset's name, or the
+      solver's class name).
 
     Give exactly one of `substeps` and `tolerances`.
     """
 
-    solver: str
+    solver: "str | diffrax.AbstractSolver"
     substeps: tuple[int, ...] = ()
     tolerances: tuple[tuple[float, float], ...] = ()
+    name: str = ""
 
     def __post_init__(self):
+        description = describe_solver(self.solver)  # checks the solver; builds a class
+        if isinstance(self.solver, str):
+            object.__setattr__(self, "solver", description.name)
+        elif isinstance(self.solver, type):
+            object.__setattr__(self, "solver", description.make_solver())
+        if not self.name:
+            object.__setattr__(self, "name", description.name)
+        object.__setattr__(self, "substeps", tuple(self.substeps))
+        object.__setattr__(self, "tolerances", tuple(tuple(pair) for pair in self.tolerances))
         if bool(self.substeps) == bool(self.tolerances):
-            raise ValueError(f"SolverSweep({self.solver!r}): give exactly one of substeps and tolerances")
+            raise ValueError(f"SolverSweep({self.name!r}): give exactly one of substeps and tolerances")
         if any(int(k) != k or k < 1 for k in self.substeps):
-            raise ValueError(f"SolverSweep({self.solver!r}): substeps must be positive integers, got {self.substeps}")
+            raise ValueError(f"SolverSweep({self.name!r}): substeps must be positive integers, got {self.substeps}")
         if any(not (r > 0 and a > 0) for r, a in self.tolerances):
-            raise ValueError(f"SolverSweep({self.solver!r}): rtol and atol must be > 0, got {self.tolerances}")
+            raise ValueError(f"SolverSweep({self.name!r}): rtol and atol must be > 0, got {self.tolerances}")
+        if self.tolerances and not description.error_estimate:
+            raise ValueError(
+                f"SolverSweep({self.name!r}): the solver has no error estimate, so it cannot be swept over "
+                "tolerances; sweep it over substeps"
+            )
+
+    @property
+    def description(self):
+        """The solver's `SolverPreset` record: order, stages, error estimate (`describe_solver`)."""
+        return describe_solver(self.solver)
 
     @property
     def adaptive(self) -> bool:
@@ -68,10 +95,18 @@ class SolverSweep:
 
     @property
     def label(self) -> str:
-        return f"{self.solver} (PID)" if self.adaptive else self.solver
+        return f"{self.name} (PID)" if self.adaptive else self.name
 
-    def integrators(self) -> list[tuple[dict[str, Any], Integrator]]:
-        """`(setting, integrator)` for every setting of the sweep."""
+    def record(self) -> dict[str, Any]:
+        """The sweep for a JSON record: the solver by name (and by its `repr` if no preset)."""
+        entry: dict[str, Any] = {"name": self.name, "order": self.description.order or None}
+        entry["solver"] = self.solver if isinstance(self.solver, str) else repr(self.solver)
+        entry["substeps"] = list(self.substeps)
+        entry["tolerances"] = [list(pair) for pair in self.tolerances]
+        return entry
+
+    def integrators(self, *, max_steps: int | None = None) -> list[tuple[dict[str, Any], Integrator]]:
+        """`(setting, integrator)` for every setting of the sweep; `max_steps` per env step."""
         if self.adaptive:
             # Tolerances as arrays, not Python floats: they are then traced leaves, and
             # one compilation serves the whole tolerance sweep.
@@ -81,6 +116,7 @@ class SolverSweep:
                     make_integrator(
                         self.solver,
                         diffrax.PIDController(rtol=jnp.asarray(rtol), atol=jnp.asarray(atol)),
+                        max_steps=max_steps,
                     ),
                 )
                 for rtol, atol in self.tolerances
@@ -88,7 +124,7 @@ class SolverSweep:
         return [
             (
                 {"rtol": None, "atol": None, "substeps": k},
-                make_integrator(self.solver, diffrax.ConstantStepSize(), substeps=k),
+                make_integrator(self.solver, diffrax.ConstantStepSize(), substeps=k, max_steps=max_steps),
             )
             for k in self.substeps
         ]
@@ -98,20 +134,73 @@ def _powers_of_two(n: int) -> tuple[int, ...]:
     return tuple(2**i for i in range(n))
 
 
-def _tolerance_pairs(exponents: Sequence[int]) -> tuple[tuple[float, float], ...]:
-    # DiffEqDevTools' convention: atol three orders below rtol.
+def tolerance_pairs(exponents: Sequence[int]) -> tuple[tuple[float, float], ...]:
+    """`(rtol, atol)` pairs `(10**-e, 10**-(e + 3))`: DiffEqDevTools' convention, atol three
+    orders below rtol."""
     return tuple((10.0**-e, 10.0 ** -(e + 3)) for e in exponents)
 
 
-def default_sweeps(*, quick: bool = False) -> tuple[SolverSweep, ...]:
-    """The solvers and settings of `lerax-like study`: every order from 1 to 8."""
+def _substeps_for_order(order: int, *, quick: bool) -> tuple[int, ...]:
+    # At CartPole's dt = 0.02 these put a method's errors between about 1e-2 and the
+    # reference floor (an unknown order is taken as 3).
+    if quick:
+        return {1: (16, 64, 256), 2: (2, 8, 32)}.get(order, (1, 2, 4))
+    return _powers_of_two({1: 11, 2: 8, 3: 6, 4: 6}.get(order, 4))
+
+
+def sweeps_for(
+    solvers: Sequence["str | diffrax.AbstractSolver"], *, quick: bool = False, stiff: bool = False
+) -> tuple[SolverSweep, ...]:
+    """The sweeps of `lerax-like study --solver NAME ...`: every solver at default settings.
+
+    A solver without an error estimate is swept over substeps (more of them for a lower
+    order); one with an estimate over substeps and over tolerances, or, on a stiff scene
+    (where a fixed step small enough for stability is no comparison), over tolerances only.
+    """
+    exponents = [4, 7, 9, 11] if quick else list(range(4, 13))
+    sweeps = []
+    names: dict[str, int] = {}
+    for solver in solvers:
+        description = describe_solver(solver)
+        name = description.name
+        if name in names:  # two solvers of one class: tell them apart
+            names[name] += 1
+            name = f"{name}#{names[name]}"
+        else:
+            names[name] = 1
+        if not (stiff and description.error_estimate):
+            sweeps.append(SolverSweep(solver, substeps=_substeps_for_order(description.order, quick=quick), name=name))
+        if description.error_estimate:
+            sweeps.append(SolverSweep(solver, tolerances=tolerance_pairs(exponents), name=name))
+    return tuple(sweeps)
+
+
+def default_sweeps(*, quick: bool = False, stiff: bool = False) -> tuple[SolverSweep, ...]:
+    """The solvers and settings of `lerax-like study`: every order from 1 to 8.
+
+    On a stiff scene (`stiff`): the implicit presets against Tsit5, over tolerances.
+    """
+    if stiff:
+        if quick:
+            return (
+                SolverSweep("tsit5", tolerances=tolerance_pairs([4, 6])),
+                SolverSweep("kvaerno3", tolerances=tolerance_pairs([4, 6])),
+                SolverSweep("kvaerno5", tolerances=tolerance_pairs([4, 6, 8])),
+            )
+        return (
+            SolverSweep("tsit5", tolerances=tolerance_pairs([4, 6, 8])),
+            SolverSweep("implicit_euler", tolerances=tolerance_pairs([2, 3, 4, 5])),
+            SolverSweep("kvaerno3", tolerances=tolerance_pairs(range(4, 10))),
+            SolverSweep("kvaerno4", tolerances=tolerance_pairs(range(4, 11))),
+            SolverSweep("kvaerno5", tolerances=tolerance_pairs(range(4, 12))),
+        )
     if quick:
         # Each substep count is a separate compilation (substeps shape the solve), so
         # the quick study keeps few: enough for Euler's and RK4's orders below 1e-2.
         return (
             SolverSweep("euler", substeps=(16, 64, 256)),
             SolverSweep("rk4", substeps=(1, 2, 4)),
-            SolverSweep("tsit5", tolerances=_tolerance_pairs([4, 7, 9, 11])),
+            SolverSweep("tsit5", tolerances=tolerance_pairs([4, 7, 9, 11])),
         )
     return (
         SolverSweep("euler", substeps=_powers_of_two(11)),
@@ -119,9 +208,9 @@ def default_sweeps(*, quick: bool = False) -> tuple[SolverSweep, ...]:
         SolverSweep("midpoint", substeps=_powers_of_two(8)),
         SolverSweep("rk4", substeps=_powers_of_two(6)),
         SolverSweep("tsit5", substeps=_powers_of_two(4)),
-        SolverSweep("tsit5", tolerances=_tolerance_pairs(range(4, 13))),
-        SolverSweep("dopri5", tolerances=_tolerance_pairs(range(4, 13))),
-        SolverSweep("dopri8", tolerances=_tolerance_pairs(range(4, 13))),
+        SolverSweep("tsit5", tolerances=tolerance_pairs(range(4, 13))),
+        SolverSweep("dopri5", tolerances=tolerance_pairs(range(4, 13))),
+        SolverSweep("dopri8", tolerances=tolerance_pairs(range(4, 13))),
     )
 
 
@@ -144,6 +233,11 @@ class StudyConfig:
       (`check_method`) by an independent method.
     - `fit_ceiling`: convergence orders are fitted to errors below it (and above the
       reference floor).
+    - `dense_points`: the dense error grid has this many points per env step (its end
+      and `dense_points - 1` inside), where the solver's own dense output is compared
+      with the reference's (`l2_error`, `linf_error`).
+    - `max_steps`: solver steps allowed per env step (default: the integrator's, 4096
+      for adaptive runs).
     """
 
     scene: str = "CartPole"
@@ -161,12 +255,14 @@ class StudyConfig:
     reference_tolerance: float = 1e-13
     check_method: str | None = None
     fit_ceiling: float = 1e-2
+    dense_points: int = 8
+    max_steps: int | None = None
 
     def __post_init__(self):
         unknown = set(self.schedules) - set(SCHEDULES)
         if unknown or not self.schedules:
             raise ValueError(f"schedules must be a non-empty subset of {SCHEDULES}, got {self.schedules}")
-        for name in ("horizon", "batch", "repeats"):
+        for name in ("horizon", "batch", "repeats", "dense_points"):
             value = getattr(self, name)
             if int(value) != value or value < 1:
                 raise ValueError(f"{name} must be a positive integer, got {value!r}")
@@ -175,9 +271,21 @@ class StudyConfig:
 
     @classmethod
     def default(cls, scene: str = "CartPole", *, quick: bool = False, **overrides) -> "StudyConfig":
-        """The study `lerax-like study SCENE [--quick]` runs."""
-        settings: dict[str, Any] = dict(scene=scene, sweeps=default_sweeps(quick=quick))
-        if quick:
+        """The study `lerax-like study SCENE [--quick]` runs.
+
+        On a stiff scene (Van der Pol), the classic stiff test: `mu = 1e3` over
+        `[0, 3000]` (100 env steps of 30), random forces, the implicit presets against
+        Tsit5 (`default_sweeps(stiff=True)`).
+        """
+        stiff = SCENES[scene].stiff if scene in SCENES else False
+        settings: dict[str, Any] = dict(scene=scene, sweeps=default_sweeps(quick=quick, stiff=stiff))
+        if stiff:
+            # The Radau reference at 1e-13 takes about a minute per initial state here.
+            settings.update(
+                scene_kwargs=dict(mu=1e3, dt=30.0), schedules=("recorded",), horizon=100, max_steps=100_000,
+                batch=1 if quick else 2, repeats=1 if quick else 3,
+            )
+        elif quick:
             settings.update(horizon=50, batch=4, repeats=3)
         settings.update(overrides)
         return cls(**settings)
@@ -225,6 +333,63 @@ def evaluations_per_step(solver: diffrax.AbstractSolver) -> tuple[int, int, int]
         return None
     stages = len(tableau.c) + 1
     return (stages - 1, stages, 1) if tableau.fsal else (stages, stages, 0)
+
+
+@eqx.filter_jit
+def _batched_dense_states(env: AbstractEnv, starts, inputs, ts):
+    """The solver's dense output inside every env step, shape `(B, T, len(ts), n)`.
+
+    Env step `k` of trajectory `b` restarts from `starts[b, k]`, the solver's own state
+    after the step before, as the trajectory did (`env.evolve`): the same solve, saved
+    inside.
+    """
+    physics = env.physics
+
+    def one_step(y0, u):
+        return env.integrator.dense_states(
+            physics.vector_field, y0, u, env.dt, ts,
+            projection=env.project if env.projects_state() else None,
+            velocity_indices=physics.velocity_indices,
+        )
+
+    def trajectory(y_starts):
+        return jax.lax.map(lambda args: one_step(*args), (y_starts, inputs))
+
+    return jax.vmap(trajectory)(starts)
+
+
+def _dense_errors(env, y0s, ys: np.ndarray, inputs, fractions: np.ndarray, entry) -> dict[str, float] | None:
+    """`l2_error` and `linf_error` over the dense grid: every env-step end and the points inside.
+
+    As DiffEqDevTools' `L2` and `Linf`: the root mean square (over grid points and state
+    components) and the maximum of the error; each maximal over the batch. The step ends
+    are the trajectory's own states, so `linf_error >= max_error`.
+    """
+    dt = float(env.dt)
+    if len(fractions) == 0:
+        inside_errors = np.zeros(ys.shape[:2] + (0, ys.shape[-1]))
+    else:
+        starts = np.concatenate([np.asarray(y0s)[:, None], ys[:, :-1]], axis=1)
+        states, ok = _batched_dense_states(env, jnp.asarray(starts), inputs, jnp.asarray(fractions * dt))
+        if not bool(np.all(np.asarray(ok))):
+            return None
+        inside_errors = np.asarray(states) - entry["reference_inside"]  # (B, T, m - 1, n)
+    boundary_errors = ys - entry["reference"]  # (B, T, n)
+    grid = np.concatenate([inside_errors, boundary_errors[:, :, None]], axis=2)  # (B, T, m, n)
+    squared = np.mean(grid.reshape(grid.shape[0], -1) ** 2, axis=1)
+    return {"l2_error": float(np.sqrt(np.max(squared))), "linf_error": float(np.max(np.abs(grid)))}
+
+
+def _empty_call_seconds(y0s, repeats: int = 20) -> float:
+    """The time of a compiled call that does nothing: a timing below a few of these is unresolved."""
+    identity = jax.jit(lambda y: y)
+    jax.block_until_ready(identity(y0s))
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        jax.block_until_ready(identity(y0s))
+        times.append(time.perf_counter() - start)
+    return min(times)
 
 
 def _controller_name(integrator: Integrator) -> str:
@@ -321,38 +486,53 @@ def _run_study(config: StudyConfig, *, progress: bool) -> StudyResult:
     y0s_np = np.asarray(y0s, dtype=np.float64)
     dt = float(env.dt)
     method, tolerance = config.method, config.reference_tolerance
+    # The dense error grid inside each env step (its end is the step's boundary).
+    fractions = np.arange(1, config.dense_points) / config.dense_points
 
     # One reference per schedule, with its floor.
     schedules: dict[str, dict[str, Any]] = {}
     for schedule, key in zip(config.schedules, jr.split(schedule_key, len(config.schedules))):
         inputs, actions = _schedule_inputs(env, config, schedule, key)
         start = time.perf_counter()
-        reference = reference_trajectories(
-            env.physics, y0s_np, inputs, dt, method=method, rtol=tolerance, atol=tolerance
+        reference, reference_inside = dense_reference_trajectories(
+            env.physics, y0s_np, inputs, dt, fractions, method=method, rtol=tolerance, atol=tolerance
         )
         reference_seconds = time.perf_counter() - start
-        looser = reference_trajectories(
-            env.physics, y0s_np, inputs, dt, method=method, rtol=10 * tolerance, atol=10 * tolerance
+        looser, looser_inside = dense_reference_trajectories(
+            env.physics, y0s_np, inputs, dt, fractions, method=method, rtol=10 * tolerance, atol=10 * tolerance
         )
         entry = {
             "inputs": inputs,
             "actions": actions,
             "reference": reference,
+            "reference_inside": reference_inside,
             "reference_seconds": reference_seconds,
             # The reference at ten times its tolerance differs from the truth by more
             # than the reference does: a conservative bound on the reference's error.
             "reference_floor": float(np.max(np.abs(looser - reference))),
+            # The same over the dense grid: the floor of `linf_error`.
+            "dense_reference_floor": float(
+                max(np.max(np.abs(looser - reference)), np.max(np.abs(looser_inside - reference_inside), initial=0.0))
+            ),
         }
         if config.check_method is not None:
-            check = reference_trajectories(
-                env.physics, y0s_np, inputs, dt, method=config.check_method, rtol=tolerance, atol=tolerance
+            check, check_inside = dense_reference_trajectories(
+                env.physics, y0s_np, inputs, dt, fractions, method=config.check_method, rtol=tolerance, atol=tolerance
             )
             entry["check_discrepancy"] = float(np.max(np.abs(check - reference)))
+            entry["dense_check_discrepancy"] = float(
+                max(entry["check_discrepancy"], np.max(np.abs(check_inside - reference_inside), initial=0.0))
+            )
         if schedule == "zero":
             entry["reference_drifts"] = _invariant_drifts(env.physics, reference, y0s_np)
         schedules[schedule] = entry
 
-    settings = [(sweep, setting, integrator) for sweep in sweeps for setting, integrator in sweep.integrators()]
+    timing_floor = _empty_call_seconds(y0s)
+    settings = [
+        (sweep, setting, integrator)
+        for sweep in sweeps
+        for setting, integrator in sweep.integrators(max_steps=config.max_steps)
+    ]
     bar = _progress_bar(len(settings), progress, f"study {config.scene}")
     rows: list[dict[str, Any]] = []
     for sweep, setting, integrator in settings:
@@ -371,6 +551,7 @@ def _run_study(config: StudyConfig, *, progress: bool) -> StudyResult:
             ys, ok, steps, rejected = (np.asarray(x) for x in outputs)
             solver_ok = bool(np.all(ok))
             deviation = np.max(np.abs(ys - entry["reference"]), axis=-1)  # (B, T)
+            dense = _dense_errors(study_env, y0s, ys, inputs, fractions, entry) if solver_ok else None
             accepted_per_trajectory = float(np.mean(np.sum(steps, axis=1)))
             attempted_per_trajectory = accepted_per_trajectory + float(np.mean(np.sum(rejected, axis=1)))
             if per_step is None:
@@ -385,8 +566,9 @@ def _run_study(config: StudyConfig, *, progress: bool) -> StudyResult:
             row = {
                 "scene": config.scene,
                 "schedule": schedule,
-                "solver": sweep.solver,
+                "solver": sweep.name,
                 "label": sweep.label,
+                "order": sweep.description.order or math.nan,
                 "controller": _controller_name(integrator),
                 "dt": dt / setting["substeps"] if setting["substeps"] is not None else math.nan,
                 "env_dt": dt,
@@ -395,9 +577,14 @@ def _run_study(config: StudyConfig, *, progress: bool) -> StudyResult:
                 "atol": setting["atol"] if setting["atol"] is not None else math.nan,
                 "error": float(np.max(deviation[:, -1])) if solver_ok else math.nan,
                 "max_error": float(np.max(deviation)) if solver_ok else math.nan,
+                "l2_error": dense["l2_error"] if dense else math.nan,
+                "linf_error": dense["linf_error"] if dense else math.nan,
                 "seconds": min(times),
+                "seconds_spread": (float(np.median(times)) - min(times)) / min(times),
+                "timing_floor": timing_floor,
                 "steps": accepted_per_trajectory,
                 "attempted_steps": attempted_per_trajectory,
+                "rejected_steps": attempted_per_trajectory - accepted_per_trajectory,
                 "vector_field_evaluations": evaluations,
                 "energy_drift": math.nan,
                 "momentum_drift": math.nan,
@@ -408,6 +595,7 @@ def _run_study(config: StudyConfig, *, progress: bool) -> StudyResult:
                 "reference_method": method,
                 "reference_tolerance": tolerance,
                 "reference_floor": entry["reference_floor"],
+                "dense_points": config.dense_points,
             }
             if schedule == "zero" and solver_ok:
                 row.update(_invariant_drifts(env.physics, ys, y0s_np))
@@ -428,7 +616,9 @@ def _run_study(config: StudyConfig, *, progress: bool) -> StudyResult:
                 "actions": None if entry["actions"] is None else entry["actions"].tolist(),
                 "reference_seconds": entry["reference_seconds"],
                 "reference_floor": entry["reference_floor"],
-                **({"check_method": config.check_method, "check_discrepancy": entry["check_discrepancy"]}
+                "dense_reference_floor": entry["dense_reference_floor"],
+                **({"check_method": config.check_method, "check_discrepancy": entry["check_discrepancy"],
+                    "dense_check_discrepancy": entry["dense_check_discrepancy"]}
                    if "check_discrepancy" in entry else {}),
                 **({"reference_drifts": entry["reference_drifts"]} if "reference_drifts" in entry else {}),
             }
@@ -440,7 +630,9 @@ def _run_study(config: StudyConfig, *, progress: bool) -> StudyResult:
             "rtol": tolerance,
             "atol": tolerance,
             "floor_estimate": f"max |reference(tol) - reference(10 tol)|, same method",
+            "dense_output": "solve_ivp(dense_output=True) of the same solves, at the dense grid's inner points",
         },
+        "dense_grid": f"{config.dense_points} points per env step: its end and {config.dense_points - 1} equally spaced inside",
         "environment": environment_record(),
     }
     return StudyResult(config=config, rows=rows, record=record)
@@ -455,7 +647,7 @@ def _config_record(config: StudyConfig, sweeps) -> dict[str, Any]:
     return {
         "scene": config.scene,
         "scene_kwargs": {k: plain(v) for k, v in config.scene_kwargs.items()},
-        "sweeps": [dataclasses.asdict(sweep) for sweep in sweeps],
+        "sweeps": [sweep.record() for sweep in sweeps],
         "schedules": list(config.schedules),
         "horizon": config.horizon,
         "batch": config.batch,
@@ -468,6 +660,8 @@ def _config_record(config: StudyConfig, sweeps) -> dict[str, Any]:
         "reference_tolerance": config.reference_tolerance,
         "check_method": config.check_method,
         "fit_ceiling": config.fit_ceiling,
+        "dense_points": config.dense_points,
+        "max_steps": config.max_steps,
         "dtype": "float64",
     }
 

@@ -1,8 +1,9 @@
 """Control and identification by gradients through the model: system identification by
 multiple shooting (`fit_parameters`, and `fit_transitions` for one-step data), iLQR,
-adaptive (refitting) MPC, and in `lerax_like.control.learning` policy learning and
-open-loop trajectory optimisation through the simulator (`lerax_like.control.domain_randomisation`:
-its recipe for a cart-pole policy trained over a batch of pole masses)."""
+adaptive (refitting) MPC with the caller's costs, and in `lerax_like.control.learning`
+policy learning (over a batch of envs that may each carry their own parameters: domain
+randomisation, as in `notebooks/domain_randomisation.ipynb`) and open-loop trajectory
+optimisation through the simulator."""
 
 from .identification import (
     fit_parameters as fit_parameters,
@@ -11,4 +12,4 @@ from .identification import (
     multiple_shooting_residuals as multiple_shooting_residuals,
 )
 from .ilqr import ilqr as ilqr
-from .mpc import adaptive_mpc as adaptive_mpc
+from .mpc import adaptive_mpc as adaptive_mpc, make_planner as make_planner

@@ -67,8 +67,8 @@ def policy_return(
             reward = reward - state_cost(next_state.y)
         return next_state, reward
 
-    step_keys = jr.split(key, horizon) if env.stochastic else None
-    _, rewards = jax.lax.scan(body, state, step_keys, length=horizon)
+    keys = jr.split(key, horizon) if env.stochastic else None
+    _, rewards = jax.lax.scan(body, state, keys, length=horizon)
     if rewarded_steps is not None:
         rewards = jnp.where(jnp.arange(horizon) < rewarded_steps, rewards, jnp.zeros_like(rewards))
     return jnp.sum(rewards)

@@ -1,8 +1,9 @@
 """Adaptive model-predictive control (IDS): plan with iLQR through a model env, act on
 the real env, refit the model's physical parameters from the transitions seen.
 
-`swing_up_stage_cost`, `swing_up_terminal_cost` and `upright` are the double cart-pole
-swing-up task as the controller sees it (the scene's reward is for reporting).
+The task as the controller sees it (stage and terminal costs, a success test) is the
+caller's: `notebooks/double_cartpole_adaptive_mpc.ipynb` writes the double cart-pole
+swing-up's.
 """
 
 from collections.abc import Callable
@@ -20,30 +21,14 @@ from .identification import fit_parameters
 from .ilqr import ilqr
 
 
-def _wrapped(angles):
-    return (angles + jnp.pi) % (2 * jnp.pi) - jnp.pi
-
-
-def swing_up_stage_cost(y: Float[Array, " 6"], action: Float[Array, " 1"]) -> Scalar:
-    """Both poles up (through `1 - cos`, so any number of turns counts), cart near 0, calm."""
-    _, theta1, theta2 = y[:3]
-    height = (1 - jnp.cos(theta1)) + (1 - jnp.cos(theta2))
-    return 2.0 * height + 0.05 * y[0] ** 2 + 0.05 * jnp.sum(y[3:] ** 2) + 0.01 * jnp.sum(action**2)
-
-
-def swing_up_terminal_cost(y: Float[Array, " 6"]) -> Scalar:
-    return 20.0 * swing_up_stage_cost(y, jnp.zeros((1,), dtype=y.dtype))
-
-
-def upright(y: Float[Array, " 6"], tolerance: float = 0.3) -> BoolScalar:
-    """Both poles within `tolerance` rad of upright (angles wrapped)."""
-    return jnp.all(jnp.abs(_wrapped(y[1:3])) < tolerance)
-
-
 def make_planner(
-    stage_cost: Callable = swing_up_stage_cost, terminal_cost: Callable = swing_up_terminal_cost
+    stage_cost: Callable[[Float[Array, " n"], Float[Array, " m"]], Scalar],
+    terminal_cost: Callable[[Float[Array, " n"]], Scalar],
 ):
     """`plan(model, y, warm_start, iterations) -> (actions, cost)`, compiled once.
+
+    iLQR over the horizon of `warm_start` through the model env's transitions, minimising
+    the sum of `stage_cost(y, action)` along it plus `terminal_cost(y_final)`.
 
     The model's integrator gets diffrax's `ForwardMode` adjoint: iLQR linearises each step
     with `jax.jacfwd`.
@@ -69,6 +54,8 @@ def adaptive_mpc(
     where: Callable[[AbstractEnv], tuple],
     *,
     key: Key,
+    planner: Callable,
+    success: Callable[[Float[Array, " n"]], BoolScalar],
     horizon: int = 60,
     iterations: int = 10,
     first_iterations: int = 100,
@@ -76,19 +63,17 @@ def adaptive_mpc(
     max_episodes: int = 3,
     success_steps: int = 20,
     refit: bool = True,
-    planner=None,
-    success: Callable = upright,
     verbose: bool = False,
 ) -> dict:
     """Closed-loop iLQR-MPC episodes on `real`, refitting `where(model)` after each episode.
 
+    `planner` is `make_planner(stage_cost, terminal_cost)` with the task's costs.
     An episode succeeds when `success(y)` holds for `success_steps` consecutive steps;
     the run stops at the first successful episode. Every transition seen so far (all
     episodes) is used for the refit (`fit_parameters` with one-step residuals).
     Returns `episodes` (run), `transitions` (real steps taken until success, or in all),
     `succeeded`, the parameter estimates after each refit and per-episode traces.
     """
-    planner = make_planner() if planner is None else planner
     dtype = real.dt.dtype
     step = eqx.filter_jit(lambda env, s, a, k: env.transition(s, a, key=k)[0])
     seen_states, seen_actions = [], []
@@ -121,7 +106,7 @@ def adaptive_mpc(
         ys, taken = jnp.stack(ys), jnp.stack(taken)
         report["episode_traces"].append({"states": np.asarray(ys), "actions": np.asarray(taken)})
         if verbose:
-            print(f"episode {episode + 1}: {'swung up' if succeeded else 'failed'} after {len(taken)} steps")
+            print(f"episode {episode + 1}: {'succeeded' if succeeded else 'failed'} after {len(taken)} steps")
         if succeeded:
             report["succeeded"] = True
             break

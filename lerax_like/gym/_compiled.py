@@ -118,6 +118,48 @@ class HoldsScene:
         # construction; `reset(seed=...)` reseeds it); a deterministic scene needs none.
         self._jax_key = self._split.key(0)
 
+    # Pickling (to save, checkpoint, or ship an env to a worker process): the compiled
+    # functions and the renderer are dropped, and JAX arrays (the scene's leaves, the
+    # key, a vector env's states) travel as NumPy arrays, so that a process without
+    # float64 enabled loads them in float64. On load the scene is split again: its
+    # functions come from the cache when this process compiled them already, else they
+    # compile on the first call. Everything else (the NumPy generator included) is
+    # copied, so a loaded copy continues exactly as the original.
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = {name: value for name, value in self.__dict__.items() if name not in ("_split", "_renderer")}
+        state["_scene"] = self._split.scene
+        return jax.tree.map(_to_host, state)
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        with float64():
+            state = jax.tree.map(_to_device, state, is_leaf=lambda x: isinstance(x, _HostArray))
+        scene, key = state.pop("_scene"), state.pop("_jax_key")
+        self.__dict__.update(state, _renderer=None)
+        self.scene = scene
+        self._jax_key = key
+
+
+class _HostArray:
+    """A JAX array (or key array) on the host, for pickling."""
+
+    def __init__(self, value: jax.Array):
+        self.is_key = jax.dtypes.issubdtype(value.dtype, jax.dtypes.prng_key)
+        self.implementation = str(jax.random.key_impl(value)) if self.is_key else None
+        self.data = np.asarray(jax.random.key_data(value) if self.is_key else value)
+
+
+def _to_host(value):
+    return _HostArray(value) if isinstance(value, jax.Array) else value
+
+
+def _to_device(value):
+    if not isinstance(value, _HostArray):
+        return value
+    if value.is_key:
+        return jr.wrap_key_data(jnp.asarray(value.data), impl=value.implementation)
+    return jnp.asarray(value.data)
+
 
 def pack_step(y: np.ndarray, steps: int, action) -> np.ndarray:
     """The inputs of `SplitScene.step` as one float64 array: one host-to-device transfer."""

@@ -60,7 +60,17 @@ class GymnasiumEnv(HoldsScene, gymnasium.Env):
 
     @state.setter
     def state(self, value) -> None:
-        self._state = None if value is None else np.array(value, dtype=np.float64)
+        if value is None:
+            self._state = None
+            return
+        expected = self._initial_bounds[0].shape
+        try:
+            state = np.array(value, dtype=np.float64)
+        except (TypeError, ValueError) as error:
+            raise TypeError(f"state must be a real array of shape {expected}, got {value!r}") from error
+        if state.shape != expected:
+            raise ValueError(f"state must have shape {expected} ({self._gym_spec.name}'s state), got shape {state.shape}")
+        self._state = state
 
     def _warm_up(self) -> None:
         # Compile the step and the observation now, not in the first step of training.
@@ -87,8 +97,8 @@ class GymnasiumEnv(HoldsScene, gymnasium.Env):
             assert integer and start <= action < start + self.action_space.n, f"{action!r} ({type(action)}) invalid"
             return np.int64(action)
         array = np.asarray(action, dtype=np.float64)
-        if array.size != 1:
-            raise ValueError(f"the action must have shape {self.action_space.shape}, got {action!r}")
+        if array.size != self.action_space.shape[0] or array.ndim > 1:
+            raise ValueError(f"the action must have shape {self.action_space.shape} ({self.action_space}), got {action!r}")
         return array.reshape(self.action_space.shape)
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):

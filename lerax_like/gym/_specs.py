@@ -90,9 +90,10 @@ class GymSpec:
         for gymnasium_name, path in self.declared.attributes:
             if hasattr(renderer, gymnasium_name):
                 setattr(renderer, gymnasium_name, float(np.asarray(operator.attrgetter(path)(scene))))
-        if hasattr(renderer, "last_u"):
-            # Pendulum draws the clipped torque of the last step as an arrow (none after reset).
-            renderer.last_u = None if action is None else float(np.asarray(scene.physical_input(action))[0])
+        # Pendulum draws the clipped torque of the last step as an arrow (none after reset);
+        # its renderer has no `last_u` before its own reset, which it never sees here, so
+        # the attribute is set on every renderer (the others ignore it).
+        renderer.last_u = None if action is None else float(np.asarray(scene.physical_input(action))[0])
 
 
 SPECS: dict[str, GymSpec] = {

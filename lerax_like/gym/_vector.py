@@ -92,6 +92,9 @@ class GymnasiumVectorEnv(HoldsScene, VectorEnv):
     @state.setter
     def state(self, value) -> None:
         value = np.asarray(value, dtype=self._dtype)
+        expected = (self._initial_bounds[0].size, self.num_envs)
+        if value.shape != expected:
+            raise ValueError(f"state must have shape {expected} (state size, num_envs), got shape {value.shape}")
         with self._split.precision():
             self._y = jnp.asarray(value.T)
             if self._steps is None:

@@ -1,6 +1,7 @@
 """Physics modules: parameters and a vector field, nothing else."""
 
 from ._base import (
+    AbstractChainDynamics as AbstractChainDynamics,
     AbstractConservativeDynamics as AbstractConservativeDynamics,
     AbstractDynamics as AbstractDynamics,
 )
@@ -12,4 +13,10 @@ from .van_der_pol import VanDerPolDynamics as VanDerPolDynamics
 from .chain import (
     CartChainDynamics as CartChainDynamics,
     NLinkPendulumDynamics as NLinkPendulumDynamics,
+)
+from .forces import (
+    AbstractGeneralisedForce as AbstractGeneralisedForce,
+    EndStops as EndStops,
+    ForcedDynamics as ForcedDynamics,
+    JointDamping as JointDamping,
 )

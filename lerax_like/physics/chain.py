@@ -21,12 +21,14 @@ the kinetic energy is `T = 1/2 q'^T M q'` with `M_thth[i, j] = A_ij cos(theta_i 
 masses and lengths are differentiable leaves.
 """
 
+from typing import ClassVar
+
 import jax.numpy as jnp
 import numpy as np
 
 from .._checks import as_parameter, check_positive
 from .._types import Array, Float, Input, Scalar, ScalarLike, State
-from ._base import AbstractConservativeDynamics
+from ._base import AbstractChainDynamics
 
 
 def _link_parameter(value, name: str, n: int | None = None) -> Float[Array, " n"]:
@@ -97,7 +99,14 @@ def chain_potential_energy(
     return gravity * jnp.sum(first_moment * jnp.cos(angles))
 
 
-class NLinkPendulumDynamics(AbstractConservativeDynamics):
+def _lagrange_derivative(dynamics, y: State, forces: Float[Array, " q"]) -> State:
+    """`[q_dot, q'']` with `M(q) q'' = forces - C(q, q') - G(q)`: both chains' vector field."""
+    _, velocities = dynamics.coordinates(y)
+    accelerations = jnp.linalg.solve(dynamics.mass_matrix(y), forces - dynamics.bias_forces(y))
+    return jnp.concatenate([velocities, accelerations])
+
+
+class NLinkPendulumDynamics(AbstractChainDynamics):
     """n uniform rods in a chain from a fixed pivot, with a torque at every joint.
 
     State `y = [theta_1, ..., theta_n, theta_1_dot, ..., theta_n_dot]`, angles absolute
@@ -105,6 +114,9 @@ class NLinkPendulumDynamics(AbstractConservativeDynamics):
     ground for `i = 1`) exerts on rod `i`; rod `i - 1` feels `-u_i`. The generalised force
     on `theta_i` is therefore `u_i - u_{i+1}`.
     """
+
+    velocity_indices: ClassVar[None] = None  # the layout depends on the number of links
+    has_cart: ClassVar[bool] = False
 
     masses: Float[Array, " n"]
     lengths: Float[Array, " n"]
@@ -126,13 +138,20 @@ class NLinkPendulumDynamics(AbstractConservativeDynamics):
     def generalised_forces(self, u: Input) -> Float[Array, " n"]:
         return u - jnp.concatenate([u[1:], jnp.zeros_like(u[:1])])
 
-    def vector_field(self, t: ScalarLike, y: State, u: Input) -> State:
+    def coordinates(self, y: State) -> tuple[Float[Array, " n"], Float[Array, " n"]]:
+        return y[: self.n_links], y[self.n_links :]
+
+    def bias_forces(self, y: State) -> Float[Array, " n"]:
+        return chain_bias_forces(self.masses, self.lengths, self.gravity, *self.coordinates(y))
+
+    def forced_vector_field(
+        self, t: ScalarLike, y: State, u: Input, generalised_force: Float[Array, " n"]
+    ) -> State:
         del t
-        n = self.n_links
-        angles, angular_velocities = y[:n], y[n:]
-        bias = chain_bias_forces(self.masses, self.lengths, self.gravity, angles, angular_velocities)
-        accelerations = jnp.linalg.solve(self.mass_matrix(y), self.generalised_forces(u) - bias)
-        return jnp.concatenate([angular_velocities, accelerations])
+        return _lagrange_derivative(self, y, self.generalised_forces(u) + generalised_force)
+
+    def vector_field(self, t: ScalarLike, y: State, u: Input) -> State:
+        return self.forced_vector_field(t, y, u, jnp.zeros((self.n_links,), dtype=y.dtype))
 
     def energy(self, y: State) -> Scalar:
         n = self.n_links
@@ -140,7 +159,7 @@ class NLinkPendulumDynamics(AbstractConservativeDynamics):
         return kinetic + chain_potential_energy(self.masses, self.lengths, self.gravity, y[:n])
 
 
-class CartChainDynamics(AbstractConservativeDynamics):
+class CartChainDynamics(AbstractChainDynamics):
     """A cart on a frictionless rail with a chain of n uniform poles hinged on it.
 
     One pole is the classic cart-pole (`CartPoleDynamics` with `half_length = length / 2`,
@@ -150,6 +169,9 @@ class CartChainDynamics(AbstractConservativeDynamics):
     absolute from upright, positive towards `+x`. Input `u` of shape `(1,)`: the
     horizontal force on the cart. The joints are passive.
     """
+
+    velocity_indices: ClassVar[None] = None  # the layout depends on the number of links
+    has_cart: ClassVar[bool] = True
 
     cart_mass: Scalar
     pole_masses: Float[Array, " n"]
@@ -177,16 +199,23 @@ class CartChainDynamics(AbstractConservativeDynamics):
     def mass_matrix(self, y: State) -> Float[Array, "q q"]:
         return chain_mass_matrix(self.pole_masses, self.pole_lengths, y[1 : 1 + self.n_links], self.cart_mass)
 
-    def vector_field(self, t: ScalarLike, y: State, u: Input) -> State:
-        del t
-        n = self.n_links
-        velocities = y[1 + n :]
-        bias = chain_bias_forces(
-            self.pole_masses, self.pole_lengths, self.gravity, y[1 : 1 + n], velocities[1:], cart=True
+    def coordinates(self, y: State) -> tuple[Float[Array, " q"], Float[Array, " q"]]:
+        return y[: 1 + self.n_links], y[1 + self.n_links :]
+
+    def bias_forces(self, y: State) -> Float[Array, " q"]:
+        positions, velocities = self.coordinates(y)
+        return chain_bias_forces(
+            self.pole_masses, self.pole_lengths, self.gravity, positions[1:], velocities[1:], cart=True
         )
-        forces = jnp.concatenate([u[:1], jnp.zeros((n,), dtype=u.dtype)])
-        accelerations = jnp.linalg.solve(self.mass_matrix(y), forces - bias)
-        return jnp.concatenate([velocities, accelerations])
+
+    def forced_vector_field(
+        self, t: ScalarLike, y: State, u: Input, generalised_force: Float[Array, " q"]
+    ) -> State:
+        del t
+        return _lagrange_derivative(self, y, generalised_force.at[0].add(u[0]))
+
+    def vector_field(self, t: ScalarLike, y: State, u: Input) -> State:
+        return self.forced_vector_field(t, y, u, jnp.zeros((1 + self.n_links,), dtype=y.dtype))
 
     def energy(self, y: State) -> Scalar:
         n = self.n_links

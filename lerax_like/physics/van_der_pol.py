@@ -1,3 +1,5 @@
+from typing import ClassVar
+
 import jax.numpy as jnp
 
 from .._fields import NONNEGATIVE, parameter
@@ -20,6 +22,8 @@ class VanDerPolDynamics(AbstractDynamics):
     an explicit solver needs steps of order `1e-3` where an implicit one takes steps of
     order 1.
     """
+
+    velocity_indices: ClassVar[None] = None  # first order in this form
 
     # mu = 0 is the harmonic oscillator, a valid (if not very interesting) limit.
     mu: Scalar = parameter(1.0, NONNEGATIVE)

@@ -1,5 +1,5 @@
 import math
-from typing import ClassVar
+from typing import ClassVar, final
 
 import jax.numpy as jnp
 
@@ -24,6 +24,7 @@ def _wrap(x: Scalar, low: float, high: float) -> Scalar:
     return jnp.where(x < low, x + below * period, x)
 
 
+@final
 class Acrobot(AbstractEnv):
     """Swing the tip of a two-link arm, actuated at the elbow only, above a line (Acrobot-v1).
 
@@ -61,7 +62,6 @@ class Acrobot(AbstractEnv):
     """
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
-    stiff: ClassVar[bool] = False
     gymnasium: ClassVar[GymnasiumSpec] = GymnasiumSpec(
         name="Acrobot-v1",
         max_episode_steps=500,
@@ -74,7 +74,9 @@ class Acrobot(AbstractEnv):
             ("LINK_MASS_2", "dynamics.link_mass_2"),
             ("LINK_COM_POS_1", "dynamics.link_com_position_1"),
             ("LINK_COM_POS_2", "dynamics.link_com_position_2"),
+            # Gymnasium's one moment of inertia is both links'.
             ("LINK_MOI", "dynamics.link_moment_of_inertia_1"),
+            ("LINK_MOI", "dynamics.link_moment_of_inertia_2"),
             ("MAX_VEL_1", "max_velocity_1"),
             ("MAX_VEL_2", "max_velocity_2"),
         ),

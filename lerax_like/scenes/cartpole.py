@@ -1,5 +1,5 @@
 import math
-from typing import ClassVar, Literal
+from typing import ClassVar, Literal, final
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -20,7 +20,6 @@ class AbstractCartPole(AbstractEnv):
     """What the discrete and continuous cart-poles share: physics, add-ons, start, observation, end."""
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
-    stiff: ClassVar[bool] = False
     addons: ClassVar[tuple[type, ...]] = (JointDamping, EndStops)
 
     dynamics: eqx.AbstractVar[CartPoleDynamics]
@@ -64,6 +63,7 @@ _CARTPOLE_ATTRIBUTES = (
 )
 
 
+@final
 class CartPole(AbstractCartPole):
     """Balance a pole on a cart by pushing the cart left or right (Gymnasium's CartPole-v1).
 
@@ -80,7 +80,9 @@ class CartPole(AbstractCartPole):
     upright (rad) and angular velocity (rad/s).
 
     ## Rewards
-    +1 for every step, the terminating step included.
+    +1 for every step, the terminating step included. With `sutton_barto_reward=True`
+    (Gymnasium's keyword), as in Sutton and Barto's book: 0 for every step, -1 for the
+    terminating one.
 
     ## Starting State
     All four coordinates uniform in `(-0.05, 0.05)`.
@@ -94,7 +96,7 @@ class CartPole(AbstractCartPole):
     `dynamics` (a `CartPoleDynamics`), or its parameters flat: `gravity`, `cart_mass`,
     `pole_mass`, `half_length`. `force_mag`, `theta_threshold_radians`, `x_threshold`,
     `dt`, `integrator` or `solver` (a preset name or a diffrax solver) with
-    `stepsize_controller`, `max_episode_steps`.
+    `stepsize_controller`, `max_episode_steps`, `sutton_barto_reward` (False).
     Add-ons of real rigs, absent unless given (see `lerax_like.physics.forces`):
     `joint_damping` (hinge friction, N m s/rad; 300 is very stiff), `end_stop_stiffness`,
     `end_stop_damping` and `track_limit` (one-sided spring-dampers at `x = +-track_limit`,
@@ -118,6 +120,7 @@ class CartPole(AbstractCartPole):
     x_threshold: Scalar = parameter(2.4, POSITIVE_OR_INF)
     dt: Scalar = time_step(0.02)
     max_episode_steps: int | None = episode_limit(500)
+    sutton_barto_reward: bool = option(False, (False, True))
 
     @property
     def action_space(self) -> Discrete:
@@ -127,14 +130,19 @@ class CartPole(AbstractCartPole):
         return jnp.where(action == 1, self.force_mag, -self.force_mag)[None]
 
     def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
-        del state, action, next_state, key
+        del state, action
+        if self.sutton_barto_reward:
+            return jnp.where(self.terminal(next_state, key=key), -1.0, 0.0).astype(self.dt.dtype)
         return jnp.ones((), dtype=self.dt.dtype)
 
     @property
     def worst_reward(self) -> Scalar:
+        if self.sutton_barto_reward:
+            return -jnp.ones((), dtype=self.dt.dtype)
         return jnp.ones((), dtype=self.dt.dtype)
 
 
+@final
 class CartPoleContinuous(AbstractCartPole):
     """CartPole with a continuous force: action `a` in `[-1, 1]` pushes with `a * force_mag` newtons.
 
@@ -163,7 +171,6 @@ class CartPoleContinuous(AbstractCartPole):
     Those of `CartPole` (the add-ons included), plus `reward` and `action_cost` (>= 0).
     """
 
-    gymnasium: ClassVar[None] = None
     # `reward` is the keyword users know; the field is `reward_kind`, as `reward` is the method.
     aliases: ClassVar[tuple[tuple[str, str], ...]] = (("reward", "reward_kind"),)
 

@@ -1,5 +1,5 @@
 import math
-from typing import ClassVar, Literal
+from typing import ClassVar, Literal, final
 
 import jax.numpy as jnp
 
@@ -16,6 +16,7 @@ def _track_default(values) -> float:
     return 2.4 if values["task"] == "balance" else math.inf
 
 
+@final
 class DoubleCartPole(AbstractEnv):
     """Balance, or swing up, two poles in a chain on a cart by pushing the cart.
 
@@ -65,8 +66,6 @@ class DoubleCartPole(AbstractEnv):
     """
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
-    stiff: ClassVar[bool] = False
-    gymnasium: ClassVar[None] = None
     addons: ClassVar[tuple[type, ...]] = (JointDamping, EndStops)
 
     task: Literal["balance", "swing_up"] = option("balance", ("balance", "swing_up"))

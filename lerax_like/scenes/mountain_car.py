@@ -1,4 +1,4 @@
-from typing import ClassVar
+from typing import ClassVar, final
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -12,11 +12,16 @@ from ..physics import MountainCarDynamics
 from ..spaces import Box, Discrete
 
 
+def _road_attributes(engine: str) -> tuple[tuple[str, str], ...]:
+    """Gymnasium's attribute names on its mountain cars: the same as the scenes' own."""
+    names = ("min_position", "max_position", "max_speed", "goal_position", "goal_velocity", engine)
+    return (("gravity", "dynamics.gravity"), *((name, name) for name in names))
+
+
 class AbstractMountainCar(AbstractEnv):
     """What the discrete and continuous mountain cars share: road, start, projection, goal."""
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
-    stiff: ClassVar[bool] = False
 
     dynamics: eqx.AbstractVar[MountainCarDynamics]
     min_position: eqx.AbstractVar[Scalar]
@@ -64,6 +69,7 @@ class AbstractMountainCar(AbstractEnv):
 
 
 
+@final
 class MountainCar(AbstractMountainCar):
     """Drive an underpowered car up a hill by rocking it (Gymnasium's MountainCar-v0).
 
@@ -103,15 +109,7 @@ class MountainCar(AbstractMountainCar):
         max_episode_steps=200,
         reward_threshold=-110.0,
         renderer="gymnasium.envs.classic_control.mountain_car:MountainCarEnv",
-        attributes=(
-            ("gravity", "dynamics.gravity"),
-            ("force", "force"),
-            ("min_position", "min_position"),
-            ("max_position", "max_position"),
-            ("max_speed", "max_speed"),
-            ("goal_position", "goal_position"),
-            ("goal_velocity", "goal_velocity"),
-        ),
+        attributes=_road_attributes("force"),
     )
 
     dynamics: MountainCarDynamics = dynamics(MountainCarDynamics)
@@ -141,6 +139,7 @@ class MountainCar(AbstractMountainCar):
         return -jnp.ones((), dtype=self.dt.dtype)
 
 
+@final
 class MountainCarContinuous(AbstractMountainCar):
     """Drive an underpowered car up a hill with a continuous throttle (MountainCarContinuous-v0).
 
@@ -177,15 +176,7 @@ class MountainCarContinuous(AbstractMountainCar):
         max_episode_steps=999,
         reward_threshold=90.0,
         renderer="gymnasium.envs.classic_control.continuous_mountain_car:Continuous_MountainCarEnv",
-        attributes=(
-            ("gravity", "dynamics.gravity"),
-            ("power", "power"),
-            ("min_position", "min_position"),
-            ("max_position", "max_position"),
-            ("max_speed", "max_speed"),
-            ("goal_position", "goal_position"),
-            ("goal_velocity", "goal_velocity"),
-        ),
+        attributes=_road_attributes("power"),
     )
 
     dynamics: MountainCarDynamics = dynamics(MountainCarDynamics)

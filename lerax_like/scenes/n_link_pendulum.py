@@ -1,5 +1,5 @@
 import math
-from typing import ClassVar
+from typing import ClassVar, final
 
 import jax.numpy as jnp
 
@@ -11,6 +11,7 @@ from ..physics.chain import NLinkPendulumDynamics
 from ..spaces import Box
 
 
+@final
 class NLinkPendulum(AbstractEnv):
     """A chain of n uniform rods hanging from a fixed pivot, with a motor at every joint.
 
@@ -49,8 +50,6 @@ class NLinkPendulum(AbstractEnv):
     """
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
-    stiff: ClassVar[bool] = False
-    gymnasium: ClassVar[None] = None
 
     dynamics: NLinkPendulumDynamics = dynamics(NLinkPendulumDynamics)
     integrator: Integrator = integrator("rk4")

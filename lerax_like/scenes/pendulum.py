@@ -1,4 +1,4 @@
-from typing import ClassVar
+from typing import ClassVar, final
 
 import jax.numpy as jnp
 
@@ -14,6 +14,7 @@ def _angle_normalize(theta: Scalar) -> Scalar:
     return ((theta + jnp.pi) % (2 * jnp.pi)) - jnp.pi
 
 
+@final
 class Pendulum(AbstractEnv):
     """Swing a pendulum up and hold it upright with a bounded torque (Gymnasium's Pendulum-v1).
 
@@ -49,7 +50,6 @@ class Pendulum(AbstractEnv):
     """
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
-    stiff: ClassVar[bool] = False
     gymnasium: ClassVar[GymnasiumSpec] = GymnasiumSpec(
         name="Pendulum-v1",
         max_episode_steps=200,

@@ -1,5 +1,5 @@
 import math
-from typing import ClassVar
+from typing import ClassVar, final
 
 import jax.numpy as jnp
 
@@ -11,6 +11,7 @@ from ..physics.planar_quadrotor import PlanarQuadrotorDynamics
 from ..spaces import Box
 
 
+@final
 class PlanarQuadrotor(AbstractEnv):
     """Hold a planar quadrotor hovering at the origin with its two rotors' thrusts.
 
@@ -49,8 +50,6 @@ class PlanarQuadrotor(AbstractEnv):
     """
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
-    stiff: ClassVar[bool] = False
-    gymnasium: ClassVar[None] = None
 
     dynamics: PlanarQuadrotorDynamics = dynamics(PlanarQuadrotorDynamics)
     integrator: Integrator = integrator("rk4")

@@ -1,4 +1,4 @@
-from typing import ClassVar
+from typing import ClassVar, final
 
 import jax.numpy as jnp
 
@@ -13,6 +13,7 @@ from ..spaces import Box
 _ERROR_CAP = 100.0
 
 
+@final
 class VanDerPol(AbstractEnv):
     """Hold a forced Van der Pol oscillator at a target amplitude; stiff for large `mu`.
 
@@ -55,7 +56,6 @@ class VanDerPol(AbstractEnv):
     stochastic: ClassVar[bool] = False  # nothing random but the start
     # Stiff from mu of about 100: the studies take their reference from SciPy's Radau.
     stiff: ClassVar[bool] = True
-    gymnasium: ClassVar[None] = None
 
     dynamics: VanDerPolDynamics = dynamics(VanDerPolDynamics)
     integrator: Integrator = integrator("tsit5")

@@ -1,0 +1,69 @@
+"""Benchmarks that compare lerax_like with its peers in one run, and the runner that records them.
+
+    python -m benchmarks NAME|all [--quick]     # run, write CSVs under results/, regenerate RESULTS.md
+    python -m benchmarks list                   # the benchmarks, their peers, whether each is installed
+    python -m benchmarks report                 # regenerate RESULTS.md from the recorded files only
+
+Each benchmark is a module `benchmarks.NAME` with `main(argv)`; `python -m benchmarks.NAME
+[options]` runs one with its own options (`--help`), which the runner passes on after `--`
+(`python -m benchmarks throughput -- --envs 1024 16384 --repeats 7`).
+
+Recorded results live in `benchmarks/results/`; each run also writes `NAME.run.json` there
+(the command, date, machine, load, library versions and a hash of every file it wrote), from
+which `benchmarks/RESULTS.md` is generated. `--quick` runs write to `benchmarks/results/quick/`
+(git-ignored, with its own RESULTS.md), so a smoke run never touches the recorded results.
+"""
+
+import dataclasses
+import pathlib
+
+
+HERE = pathlib.Path(__file__).resolve().parent
+RESULTS = HERE / "results"
+QUICK_RESULTS = RESULTS / "quick"
+
+
+def results_dir(quick: bool) -> pathlib.Path:
+    """Where a benchmark writes by default: the recorded results, or the git-ignored quick folder."""
+    return QUICK_RESULTS if quick else RESULTS
+
+
+@dataclasses.dataclass(frozen=True)
+class Benchmark:
+    name: str
+    summary: str
+    # Modules that must be importable, with the install hint shown when one is missing.
+    needs: tuple[tuple[str, str], ...] = ()
+    # Extra environment for the benchmark's process (sharding needs several host devices).
+    environment: tuple[tuple[str, str], ...] = ()
+
+
+_STUDY = ("scipy", "pip install -e '.[study]'")
+_PLOTS = ("matplotlib", "pip install -e '.[study]'")
+_GYMNAX = ("gymnax", "pip install -e '.[bench]'")
+_OPTAX = ("optax", "pip install -e '.[test]'")
+_SB3 = ("stable_baselines3", "pip install stable-baselines3 (with a CPU torch)")
+
+# In the order `all` runs them.
+BENCHMARKS = {
+    benchmark.name: benchmark
+    for benchmark in (
+        Benchmark("work_precision", "error against run time of every solver, per scene (the main job)", (_STUDY, _PLOTS)),
+        Benchmark("gradient_error", "gradient error against run time, per solver and step", (_STUDY, _PLOTS)),
+        Benchmark("gradient_variance", "first- against zeroth-order gradient estimators against the horizon", (_STUDY, _PLOTS)),
+        Benchmark("gradient_memory", "memory and time of a 1000-step rollout's gradient: storing against checkpointing"),
+        Benchmark("throughput", "env steps per second against the number of envs, beside gymnax and Gymnasium", (_GYMNAX, _PLOTS)),
+        Benchmark("profile_step", "where the time of a vmapped env step goes, part by part, beside gymnax", (_GYMNAX,)),
+        Benchmark("compile_time", "compile time of 1000-step scanned programs, beside gymnax", (_GYMNAX,)),
+        Benchmark("adaptive_vmap", "adaptive solvers under vmap: one hard env in a batch, and the remedies"),
+        Benchmark("latency", "one Gymnasium-layer step against the JAX floor and Gymnasium's own step"),
+        Benchmark("gym_vector", "the Gymnasium-layer vector env against Gymnasium's vector CartPole"),
+        Benchmark("stability", "stiff and extreme cases: status and error per solver, and Kvaerno5's root finders", (_STUDY,)),
+        Benchmark("domain_randomisation", "a policy trained over pole masses against one trained at the nominal mass", (_OPTAX, _STUDY)),
+        Benchmark("ppo_baseline", "PPO (Stable-Baselines3) on the policy-learning task", (_SB3,)),
+        Benchmark(
+            "sharded_rollout", "rollouts sharded over devices equal the unsharded run",
+            environment=(("XLA_FLAGS", "--xla_force_host_platform_device_count=4"),),
+        ),
+    )
+}

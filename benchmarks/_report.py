@@ -1,0 +1,496 @@
+"""RESULTS.md, written from the recorded result files only, so that no number can drift from its source.
+
+Each benchmark's section states the command that produced its files (from `NAME.run.json`,
+written by `python -m benchmarks NAME`), when, where and under what load, then its tables and
+figures, computed here from the CSV and JSON files. The prose says how to read a table and
+never repeats a number by hand. A file edited after its run record was written is flagged.
+"""
+
+import ast
+import csv
+import hashlib
+import json
+import math
+import os
+import pathlib
+
+from benchmarks import BENCHMARKS, HERE, results_dir
+
+
+def _read_csv(folder: pathlib.Path, name: str) -> list[dict] | None:
+    path = folder / name
+    if not path.exists():
+        return None
+    with open(path, newline="") as file:
+        return list(csv.DictReader(file))
+
+
+def _read_json(folder: pathlib.Path, name: str):
+    path = folder / name
+    return json.loads(path.read_text()) if path.exists() else None
+
+
+def _table(header: list[str], rows: list[list]) -> list[str]:
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(str(cell) for cell in row) + " |" for row in rows]
+    return lines + [""]
+
+
+def _g(value, digits: int = 3) -> str:
+    """A number to `digits` significant figures ('' for a missing one)."""
+    if value in (None, ""):
+        return ""
+    value = float(value)
+    if math.isnan(value):
+        return ""
+    return f"{value:.{digits}g}"
+
+
+def _duration(seconds) -> str:
+    seconds = float(seconds)
+    return f"{seconds:.3g} s" if seconds >= 1 else f"{seconds * 1e3:.3g} ms"
+
+
+def _mega(value) -> str:
+    return f"{float(value) / 1e6:.3g} M"
+
+
+def summary_line(name: str) -> str:
+    """The first line of a benchmark module's docstring, read without importing it."""
+    tree = ast.parse((HERE / f"{name}.py").read_text())
+    return (ast.get_docstring(tree) or "").splitlines()[0]
+
+
+def provenance(folder: pathlib.Path, record_name: str) -> list[str]:
+    """How the files of one run were made, from its run record; flags files changed since."""
+    record = _read_json(folder, f"{record_name}.run.json")
+    if record is None:
+        return ["*No run record: these files predate `python -m benchmarks`.*", ""]
+    load = record.get("load_average_at_start")
+    versions = record.get("versions", {})
+    parts = [f"`{record['command']}`", f"{record['date_utc']} UTC", record.get("machine", "")]
+    if load:
+        parts.append(f"load average {load[0]:g} at the start")
+    if versions:
+        parts.append(", ".join(f"{package} {version}" for package, version in versions.items()))
+    if record.get("seconds"):
+        parts.append(f"{record['seconds']:.0f} s")
+    lines = ["Produced by " + "; ".join(part for part in parts if part) + "."]
+    if record.get("note"):
+        lines.append(record["note"])
+    changed = [
+        file for file, digest in record.get("files", {}).items()
+        if not (folder / file).exists() or hashlib.sha256((folder / file).read_bytes()).hexdigest() != digest
+    ]
+    if changed:
+        lines.append("**Changed since this run record** (regenerate them): " + ", ".join(f"`{file}`" for file in changed) + ".")
+    return [" ".join(lines), ""]
+
+
+# --- sections, one per benchmark --------------------------------------------------------------
+
+
+def work_precision(folder, link):
+    lines = []
+    for path in sorted(folder.glob("work_precision_*.json")):
+        scene = path.stem.removeprefix("work_precision_")
+        data = json.loads(path.read_text())
+        config = data["config"]
+        lines += [f"### {scene}", ""]
+        lines += [
+            f"{config.get('batch', '')} initial states from `env.initial`, {config.get('horizon', '')} env steps "
+            f"({data.get('horizon_seconds', '')} s); error: max-norm error of the final state against SciPy "
+            f"`solve_ivp` ({data['reference']['method']}, rtol = atol = {data['reference']['rtol']:g}), "
+            "worst of the batch; seconds: the whole batch under `vmap`, minimum of "
+            f"{config.get('repeats', '')} runs. Study recorded {data.get('date', '')}.", "",
+        ]
+        if (folder / f"work_precision_{scene}.png").exists():
+            lines += [f"![{scene} work-precision]({link}/work_precision_{scene}.png)", ""]
+        rows = []
+        for target, by_time in data.get("cheapest_by_seconds", {}).items():
+            by_work = data.get("cheapest_by_evaluations", {}).get(target)
+            cell_time = (f"`{by_time['label']}` {by_time['setting']}: error {_g(by_time['error'], 2)}, "
+                         f"{float(by_time['seconds']) * 1e3:.3g} ms") if by_time else "none"
+            cell_work = (f"`{by_work['label']}` {by_work['setting']}: error {_g(by_work['error'], 2)}, "
+                         f"{float(by_work['vector_field_evaluations']):.0f} evaluations") if by_work else "none"
+            rows.append([target, cell_time, cell_work])
+        if rows:
+            lines += ["Cheapest setting that reaches each error:", ""]
+            lines += _table(["error at most", "by run time", "by vector-field evaluations"], rows)
+        orders = [order for order in data.get("convergence_orders", []) if order.get("order") is not None]
+        if orders:
+            rows = []
+            for order in orders:
+                rows.append([order["schedule"], order["solver"], _g(order["order"]), order.get("points", ""),
+                             _g(order.get("energy_drift_order")), _g(order.get("momentum_drift_order"))])
+            lines += ["Fitted orders (slope of log error on log step):", ""]
+            lines += _table(["actions", "solver", "error order", "points", "energy drift order", "momentum drift order"], rows)
+    return lines
+
+
+def gradient_error(folder, link):
+    data = _read_json(folder, "gradient_error.json")
+    rows = _read_csv(folder, "gradient_error.csv")
+    if data is None or rows is None:
+        return []
+    lines = [
+        f"Reference: {data['reference']['solver']} at rtol {data['reference']['rtol']:g} "
+        f"(its own error about {_g(data['reference']['floor'], 2)}).", "",
+    ]
+    if (folder / "gradient_error.png").exists():
+        lines += [f"![gradient error]({link}/gradient_error.png)", ""]
+    table = []
+    for row in rows:
+        setting = f"dt {_g(row['dt'])} ({row['substeps']} substeps)" if row["substeps"] else f"rtol {_g(row['rtol'])}"
+        table.append([row["label"], setting, _g(row["error"], 2), f"{float(row['seconds']) * 1e3:.3g} ms", row["solver_ok"]])
+    lines += _table(["solver", "setting", "relative gradient error", "time of one gradient", "solver ok"], table)
+    orders = data.get("convergence_orders", [])
+    if orders:
+        lines += ["Fitted orders of the gradient error: " + ", ".join(
+            f"{order['solver']} {_g(order['order'])}" for order in orders) + ".", ""]
+    signs = data.get("wrong_sign")
+    if signs:
+        lines += [
+            f"{signs.get('quantity', 'sensitivity')} under {signs.get('label', 'Euler')} against the reference, "
+            f"along {len(signs['times'])} env steps: wrong sign on {100 * float(signs['wrong_sign_fraction']):.0f}% "
+            "of the steps.", "",
+        ]
+        step = signs.get("first_clear_wrong_sign_step")
+        if step is not None:
+            lines[-2] = lines[-2][:-1] + (
+                f"; at t = {_g(signs['times'][step])} s it is {_g(signs['sensitivity'][step])} where the "
+                f"reference is {_g(signs['reference'][step])}."
+            )
+    return lines
+
+
+def gradient_variance(folder, link):
+    rows = _read_csv(folder, "gradient_variance.csv")
+    if rows is None:
+        return []
+    lines = []
+    for figure in sorted(folder.glob("gradient_variance*.png")):
+        lines += [f"![{figure.stem}]({link}/{figure.name})", ""]
+    first = {(r["case"], r["solver"], r["policy"], r["dtype"], r["sigma"], r["horizon"]): r
+             for r in rows if r["estimator"] == "first_order"}
+    zeroth = {(r["case"], r["solver"], r["policy"], r["dtype"], r["sigma"], r["horizon"]): r
+              for r in rows if r["estimator"] == "zeroth_order"}
+    table = []
+    for key, row in first.items():
+        other = zeroth.get(key)
+        table.append([*key, _g(row["variance"], 2), _g(other["variance"], 2) if other else "",
+                      _g(row["relative_bias"], 2), row["failed_samples"]])
+    lines += ["Variance (trace of the per-sample covariance) of the first-order (autodiff) and zeroth-order "
+              "(randomised smoothing) estimators, and the first-order estimator's bias relative to the "
+              "reference; every column in `gradient_variance.csv`:", ""]
+    return lines + _table(
+        ["case", "solver", "policy", "dtype", "sigma", "horizon", "first-order variance", "zeroth-order variance",
+         "first-order relative bias", "failed samples"], table,
+    )
+
+
+def gradient_memory(folder, link):
+    data = _read_json(folder, "gradient_memory.json")
+    if data is None:
+        return []
+    methods = list(dict.fromkeys(row["method"] for row in data["rows"]))
+    table = []
+    for solver in dict.fromkeys(row["solver"] for row in data["rows"]):
+        cells = [solver]
+        for method in methods:
+            row = next(r for r in data["rows"] if r["solver"] == solver and r["method"] == method)
+            size = row["temp_bytes"] / 2**20
+            size = f"{size / 1024:.3g} GiB" if size >= 1024 else f"{size:.3g} MiB"
+            cells.append(f"{size}, {_duration(row['seconds'])}")
+        gradients = {r["grad_pole_mass"] for r in data["rows"] if r["solver"] == solver}
+        spread = (max(gradients) - min(gradients)) / abs(max(gradients))
+        cells.append(f"{spread:.1e}")
+        table.append(cells)
+    steps = data["rows"][0]["steps"]
+    lines = [
+        f"Gradient of a {steps}-step rollout, vmapped over {data.get('batch', 256)} envs: XLA's temporary-buffer "
+        "size of the compiled gradient and the median time of 5 runs; the last column is the relative spread "
+        "of dL/d pole_mass across the three methods (they compute the same gradient).", "",
+    ]
+    return lines + _table(["solver", *methods, "gradient spread"], table)
+
+
+def throughput(folder, link):
+    lines = []
+    for stem, title in (("throughput", None), ("throughput_second_run", "Second run")):
+        rows = _read_csv(folder, f"{stem}.csv")
+        if rows is None:
+            continue
+        if title:
+            lines += [f"**{title}**: " + " ".join(provenance(folder, stem)).strip(), ""]
+        counts = sorted({int(row["num_envs"]) for row in rows})
+        names = list(dict.fromkeys(row["implementation"] for row in rows))
+        cells = {(row["implementation"], int(row["num_envs"])): row for row in rows}
+        table = []
+        for name in names:
+            table.append([name] + [
+                f"{_mega(cells[name, n]['steps_per_s'])} (x{float(cells[name, n]['speed_vs_gymnax']):.2f})"
+                if (name, n) in cells else "–" for n in counts
+            ])
+        lines += ["Env steps per second (minimum over interleaved repeats) and, in brackets, speed relative to "
+                  "gymnax in the same run:", ""]
+        lines += _table(["implementation"] + [f"N={n}" for n in counts], table)
+        if all(("lerax_like Euler", n) in cells for n in counts):
+            table = [
+                [name] + [f"{float(cells['lerax_like Euler', n]['steps_per_s']) / float(cells[name, n]['steps_per_s']):.2f}"
+                          for n in counts]
+                for name in ("lerax_like RK4", "lerax_like Tsit5") if all((name, n) in cells for n in counts)
+            ]
+            if table:
+                lines += ["Cost relative to lerax_like Euler:", ""]
+                lines += _table(["solver"] + [f"N={n}" for n in counts], table)
+        if (folder / f"{stem}.png").exists():
+            lines += [f"![throughput]({link}/{stem}.png)", ""]
+    return lines
+
+
+def profile_step(folder, link):
+    rows = _read_csv(folder, "profile_step.csv")
+    if rows is None:
+        return []
+    return ["Each row adds one part of `env.step` to the previous workload; time relative to gymnax's step "
+            "(minimum of interleaved repeats):", ""] + _table(
+        ["variant", "time vs gymnax", "M steps/s"],
+        [[row["variant"], f"{float(row['time_vs_gymnax']):.2f}", _g(float(row["steps_per_s"]) / 1e6)] for row in rows],
+    )
+
+
+def compile_time(folder, link):
+    rows = _read_csv(folder, "compile_time.csv")
+    if rows is None:
+        return []
+    implementations = list(dict.fromkeys(row["implementation"] for row in rows))
+    programs = list(dict.fromkeys(row["program"] for row in rows))
+    cells = {(row["implementation"], row["program"]): row for row in rows}
+    table = [[program] + [f"{float(cells[i, program]['total_wall_s']):.2f} s" if (i, program) in cells else "–"
+                          for i in implementations] for program in programs]
+    return ["Trace, lowering and XLA compilation of a fresh `jax.jit`, wall-clock, minimum of fresh compiles "
+            "(`rollout`: `lerax_like.rollout` of one env; `step`: `env.step` with autoreset and random actions, "
+            "vmapped):", ""] + _table(["program", *implementations], table)
+
+
+def adaptive_vmap(folder, link):
+    lines = []
+    for stem, title in (("adaptive_vmap", None), ("adaptive_vmap_second_run", "Second run")):
+        rows = _read_csv(folder, f"{stem}.csv")
+        if rows is None:
+            continue
+        if title:
+            lines += [f"**{title}**: " + " ".join(provenance(folder, stem)).strip(), ""]
+        lines += _table(
+            ["batch", "time vs all easy", "solver steps per env step (mean)", "loop iterations (max over batch)"],
+            [[row["batch"], f"{float(row['time_vs_all_easy']):.2f}", _g(row["mean_solver_steps"]),
+              _g(row["max_over_batch_solver_steps"])] for row in rows],
+        )
+    return lines
+
+
+def latency(folder, link):
+    rows = _read_csv(folder, "latency.csv")
+    if rows is None:
+        return []
+    single = [row for row in rows if row["vs_jax_floor"] not in ("", "nan")]
+    vector = [row for row in rows if row["vs_jax_floor"] in ("", "nan")]
+    lines = ["Single env, median call per block, minimum over interleaved blocks:", ""]
+    lines += _table(
+        ["measurement", "µs per step", "vs JAX floor", "vs Gymnasium's `make` step"],
+        [[row["measurement"], f"{float(row['seconds_per_step']) * 1e6:.3g}", f"{float(row['vs_jax_floor']):.2f}",
+          f"{float(row['vs_gymnasium_make_step']):.2f}"] for row in single],
+    )
+    if vector:
+        theirs = next((row for row in vector if row["measurement"].startswith("Gymnasium")), None)
+        lines += ["Vector envs:", ""]
+        lines += _table(
+            ["measurement", "µs per vector step", "M steps/s", "vs Gymnasium vector"],
+            [[row["measurement"], f"{float(row['seconds_per_step']) * 1e6:.3g}", _g(float(row["steps_per_s"]) / 1e6),
+              f"{float(theirs['seconds_per_step']) / float(row['seconds_per_step']):.2f}x" if theirs else ""]
+             for row in vector],
+        )
+    return lines
+
+
+def gym_vector(folder, link):
+    rows = _read_csv(folder, "gym_vector.csv")
+    if rows is None:
+        return []
+    if "ours_steps_per_s" in rows[0]:
+        return ["Steps per second of the vector env (fastest interleaved block), against a hand-written JAX step "
+                "of the same physics (the XLA floor) and against Gymnasium's own vector env in the same run:", ""] + _table(
+            ["id", "N", "dtype", "ours", "floor", "ours / floor", "Gymnasium's", "ours / Gymnasium's", "load"],
+            [[row["id"], row["num_envs"], row["dtype"], _mega(row["ours_steps_per_s"]), _mega(row["floor_steps_per_s"]),
+              f"{float(row['ours_vs_floor']):.2f}",
+              f"{_mega(row['peer_steps_per_s'])} ({row['peer']})" if row["peer_steps_per_s"] else "",
+              f"{float(row['ours_vs_peer']):.2f}" if row["ours_vs_peer"] else "", row["load_average_1min"]]
+             for row in rows],
+        )
+    return _table(
+        ["N", "lerax_like steps/s (median)", "Gymnasium steps/s (median)", "ratio (median)", "ratio (best)", "load"],
+        [[row["num_envs"], _mega(row["lerax_like_steps_per_s_median"]), _mega(row["gymnasium_steps_per_s_median"]),
+          f"{float(row['ratio_median']):.2f}", f"{float(row['ratio_best']):.2f}", row["load_average_1min"]]
+         for row in rows],
+    )
+
+
+def stability(folder, link):
+    rows = _read_csv(folder, "stability.csv")
+    if rows is None:
+        return []
+    solvers = list(dict.fromkeys(row["solver"] for row in rows))
+    table = []
+    for case in dict.fromkeys(row["case"] for row in rows):
+        cells = [case]
+        for solver in solvers:
+            row = next((r for r in rows if r["case"] == case and r["solver"] == solver), None)
+            if row is None:
+                cells.append("")
+                continue
+            cell = row["status"]
+            if row["error"] and row["status"] != "ok":
+                cell += f" ({row['error']})"
+            elif row["failed_at"]:
+                cell += f" (step {row['failed_at']})"
+            cells.append(cell)
+        table.append(cells)
+    lines = ["Status per case and solver (ok: relative error at most 1e-3 against SciPy at 1e-12; in brackets the "
+             "error, or the env step where the run failed); every number in "
+             f"[`stability.md`]({link}/stability.md):", ""]
+    lines += _table(["case", *solvers], table)
+    markdown = folder / "stability.md"
+    if markdown.exists():
+        contact = [line for line in markdown.read_text().splitlines() if line.startswith("Contact reference:")]
+        lines += contact + ([""] if contact else [])
+    finders = _read_csv(folder, "root_finders.csv")
+    if finders:
+        lines += ["Kvaerno5's root finders on Van der Pol at mu = 1e3:", ""]
+        lines += _table(list(finders[0]), [list(row.values()) for row in finders])
+    return lines
+
+
+def domain_randomisation(folder, link):
+    data = _read_json(folder, "domain_randomisation.json")
+    if data is None:
+        return []
+    masses = list(data["runs"][0]["balanced_fraction_by_pole_mass"])
+    low, high = data["training_mass_range"]
+    lines = [
+        f"Fraction of {data['evaluation']}, per pole mass (kg); training range [{low:g}, {high:g}] kg in bold; "
+        "where the seeds differ, the range over seeds.", "",
+    ]
+    table = []
+    for policy in dict.fromkeys(run["policy"] for run in data["runs"]):
+        runs = [run for run in data["runs"] if run["policy"] == policy]
+        seeds = ", ".join(str(run["seed"]) for run in runs)
+        cells = []
+        for mass in masses:
+            values = [run["balanced_fraction_by_pole_mass"][mass] for run in runs]
+            cells.append(f"{min(values):.2f}" if min(values) == max(values) else f"{min(values):.2f}–{max(values):.2f}")
+        label = f"nominal {data['nominal_mass']:g} kg" if policy == "nominal" else f"{policy} [{low:g}, {high:g}] kg"
+        table.append([f"{label}, seeds {seeds}", *cells])
+    lqr = data.get("lqr_per_mass")
+    if lqr:
+        table.append(["LQR designed at each mass", *(f"{lqr[mass]:.2f}" if mass in lqr else "" for mass in masses)])
+    header = ["policy"] + [f"**{float(m):g}**" if low <= float(m) <= high else f"{float(m):g}" for m in masses]
+    lines += _table(header, table)
+    seconds = [run["train_seconds"] for run in data["runs"]]
+    lines += [f"Training time per policy (compilation included): {min(seconds):g} to {max(seconds):g} s.", ""]
+    return lines
+
+
+def ppo_baseline(folder, link):
+    data = _read_json(folder, "ppo_baseline.json")
+    if data is None:
+        return []
+    starts = data.get("evaluation_starts", 100)
+    balanced = data.get("balanced_500", data.get("balanced_500_of_100"))
+    return [
+        f"{data['algorithm']}: {data['env_steps']} env steps, {data['train_seconds']:.0f} s of training; its "
+        f"deterministic policy balanced {balanced} of {starts} random starts for 500 steps (mean episode length "
+        f"{data['mean_episode_length']:g}).", "",
+    ]
+
+
+def sharded_rollout(folder, link):
+    data = _read_json(folder, "sharded_rollout.json")
+    if data is None:
+        return []
+    return [
+        f"{data['num_envs']} envs on {data['devices']} devices in {data['processes']} process(es), {data['steps']} "
+        f"steps: largest difference from the unsharded run {data['largest_difference_from_unsharded']:g}.", "",
+    ]
+
+
+SECTIONS = {
+    "work_precision": work_precision,
+    "gradient_error": gradient_error,
+    "gradient_variance": gradient_variance,
+    "gradient_memory": gradient_memory,
+    "throughput": throughput,
+    "profile_step": profile_step,
+    "compile_time": compile_time,
+    "adaptive_vmap": adaptive_vmap,
+    "latency": latency,
+    "gym_vector": gym_vector,
+    "stability": stability,
+    "domain_randomisation": domain_randomisation,
+    "ppo_baseline": ppo_baseline,
+    "sharded_rollout": sharded_rollout,
+}
+assert set(SECTIONS) == set(BENCHMARKS), "every benchmark needs a section"
+
+# How to read each benchmark's tables: method and caveats, no numbers (those come from the files).
+NOTES_FILE = HERE / "NOTES.md"
+
+
+def _notes() -> dict[str, str]:
+    """`## name` sections of benchmarks/NOTES.md, by benchmark name."""
+    notes, name = {}, None
+    if NOTES_FILE.exists():
+        for line in NOTES_FILE.read_text().splitlines():
+            if line.startswith("## "):
+                name = line[3:].strip()
+                notes[name] = []
+            elif name is not None:
+                notes[name].append(line)
+    return {name: "\n".join(lines).strip() for name, lines in notes.items()}
+
+
+def render(folder: pathlib.Path, link: str, quick: bool) -> str:
+    notes = _notes()
+    lines = [
+        "# Benchmark results" + (" (quick run)" if quick else ""),
+        "",
+        "<!-- Generated by `python -m benchmarks report` from the files in "
+        f"{'benchmarks/results/quick' if quick else 'benchmarks/results'}/; do not edit by hand. -->",
+        "",
+        "Written by `python -m benchmarks NAME|all" + (" --quick" if quick else "") + "` (or `python -m benchmarks "
+        "report`) from the result files alone: every number below is read from a file under "
+        f"[`{link}/`]({link}/), and each section names the command that wrote its files. Timings come from a "
+        "shared 2-core CPU machine unless a section says otherwise: compare the ratios between peers measured in "
+        "the same run, not absolute times across sections. The paragraphs after the tables (how to read them, "
+        "what was learnt) come from `benchmarks/NOTES.md` and carry no measured numbers.",
+        "",
+    ]
+    for name, section in SECTIONS.items():
+        lines += [f"## {name}", "", summary_line(name).rstrip(".") + ".", ""]
+        body = section(folder, link)
+        if not body:
+            lines += [f"*No results recorded yet: `python -m benchmarks {name}`.*", ""]
+            continue
+        lines += provenance(folder, name) + body
+        if notes.get(name):
+            lines += [notes[name], ""]
+    return "\n".join(lines).rstrip() + "\n"
+
+
+def write_results(quick: bool = False) -> pathlib.Path:
+    folder = results_dir(quick)
+    path = folder / "RESULTS.md" if quick else HERE / "RESULTS.md"
+    link = os.path.relpath(folder, path.parent)
+    folder.mkdir(parents=True, exist_ok=True)
+    path.write_text(render(folder, link, quick))
+    return path

@@ -1,0 +1,90 @@
+"""When do the simulator's gradients pay? First- vs zeroth-order gradient estimators against horizon.
+
+The study of Suh et al. (ICML 2022) on three problems, per solver (see
+`lerax_like.analysis.gradient_variance`):
+
+- CartPoleContinuous from a 0.1 rad tilt (smooth; Euler, Gymnasium's step, and RK4);
+- DoubleCartPole from a 0.05 rad tilt of the first pole (chaotic once it falls; RK4 and
+  Tsit5), at two smoothing scales;
+- the cart-pole with end stops of stiffness 1e4 and 1e6 N/m at 0.5 m (damping ratio
+  about 0.1), running into one at 1 m/s (stiff contact; Tsit5, adaptive), and at 1e6
+  without the damper.
+
+Horizons 10 to 200 env steps of 0.02 s, an open-loop action sequence and a linear
+feedback policy (around the LQR gain; zero gain with the end stops), 512 samples per
+estimator and 8192 antithetic samples for the reference, float64; float32 against float64
+up to 400 steps.
+
+    python -m benchmarks gradient_variance            # writes benchmarks/results/gradient_variance*.{csv,json,png}
+    python -m benchmarks gradient_variance --quick    # the smooth cart-pole only, small sizes, into results/quick/
+"""
+
+import argparse
+import pathlib
+import time
+
+import jax
+
+jax.config.update("jax_enable_x64", True)
+
+from benchmarks import results_dir  # noqa: E402
+from lerax_like.analysis.gradient_variance import (  # noqa: E402
+    GradientVarianceConfig,
+    run_gradient_variance,
+    summary,
+    write_gradient_variance,
+)
+
+COMMON = dict(horizons=(10, 20, 50, 100, 200), samples=512, reference_samples=8192, precision_horizon=400)
+QUICK = dict(horizons=(10, 50), samples=64, reference_samples=512, precision_horizon=50)
+
+
+def configs(quick: bool = False):
+    if quick:
+        return [GradientVarianceConfig.default("CartPoleContinuous", solvers=("euler", "rk4"), sigmas=(0.05,), **QUICK)]
+
+    def end_stops(stiffness, **overrides):
+        settings = dict(solvers=("tsit5",), sigmas=(0.05,), **{**COMMON, "precision_horizon": 200})
+        settings.update(overrides)
+        return GradientVarianceConfig.default(
+            "CartPoleContinuous", scene_kwargs={"end_stop_stiffness": stiffness, **settings.pop("scene_kwargs", {})},
+            **settings,
+        )
+
+    return [
+        GradientVarianceConfig.default("CartPoleContinuous", solvers=("euler", "rk4"), sigmas=(0.05,), **COMMON),
+        end_stops(1e4),
+        end_stops(1e6),
+        GradientVarianceConfig.default("DoubleCartPole", solvers=("rk4", "tsit5"), sigmas=(0.01, 0.1), **COMMON),
+        # The stiffest stops without their damper: a vector field with a kink at contact
+        # instead of a jump (the damper's force c x_dot appears at once on contact).
+        end_stops(1e6, scene_kwargs={"end_stop_damping": 0.0}, policies=("open_loop",),
+                  case="CartPoleContinuous[end_stop_stiffness=1e+06,end_stop_damping=0]"),
+    ]
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="the smooth cart-pole only: horizons 10 and 50, 64 samples")
+    parser.add_argument("--out", type=pathlib.Path, default=None, help="default: benchmarks/results[/quick]")
+    arguments = parser.parse_args(argv)
+    out = arguments.out or results_dir(arguments.quick)
+    out.mkdir(parents=True, exist_ok=True)
+    results = []
+    start = time.perf_counter()
+    for config in configs(arguments.quick):
+        began = time.perf_counter()
+        results.append(run_gradient_variance(config, progress=print))
+        print(f"{config.name}: {time.perf_counter() - began:.0f} s")
+        for entry in summary(results[-1]):
+            print(entry)
+        # Written after every case, so that a later failure keeps the finished ones.
+        paths = write_gradient_variance(
+            results, out, stem="gradient_variance", study_seconds=time.perf_counter() - start,
+            jax=jax.__version__, backend=jax.default_backend(),
+        )
+    print(f"{time.perf_counter() - start:.0f} s; wrote " + ", ".join(paths.values()))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,159 @@
+"""Gradient estimators through the simulator against black-box ones (`lerax-like gradient-variance`)."""
+
+import csv
+import json
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import lerax_like.analysis.gradient_variance as gv
+from lerax_like.cli import main
+
+
+def _stats(rows, estimator):
+    return next(r for r in rows if r["estimator"] == estimator)
+
+
+def test_estimators_and_reference_are_unbiased_on_a_known_smoothed_gradient():
+    # f(theta) = sum theta^3: grad F(theta) = E[3 (theta + sigma w)^2] = 3 theta^2 + 3 sigma^2,
+    # the smoothed gradient in closed form, apart from the code under test.
+    theta = jnp.array([0.3, -0.7, 1.1, 0.0])
+    sigma = 0.2
+
+    def f(t, horizon):
+        del horizon
+        return jnp.sum(t**3), jnp.asarray(True)
+
+    active = np.ones(4, dtype=bool)
+    estimates = gv.estimate_gradients(f, theta, active, 1, sigma, samples=512, reference_samples=8192,
+                                      key=jax.random.key(1))
+    exact = 3 * np.asarray(theta) ** 2 + 3 * sigma**2
+    for name in ("first_order", "zeroth_order", "reference"):
+        stats = estimates[name]
+        error = np.linalg.norm(stats["mean"] - exact)
+        assert error < 3 * math.sqrt(stats["variance"] / stats["samples"]), name
+    # Per sample, the first-order gradient is less spread than the black-box estimate.
+    assert estimates["first_order"]["variance"] < estimates["zeroth_order"]["variance"]
+
+
+def test_alpha_order_weight_minimises_the_variance_and_guards_against_bias():
+    rng = np.random.default_rng(0)
+    zeroth = rng.normal(size=(4000, 3)) * 2.0
+    first = rng.normal(size=(4000, 3)) * 1.0
+    # Independent, unbiased: alpha = V0 / (V0 + V1) = 4 / 5.
+    alpha, guarded = gv.alpha_weight(first, zeroth)
+    assert not guarded and abs(alpha - 0.8) < 0.03
+    alpha, guarded = gv.alpha_weight(first + 1.0, zeroth)
+    assert guarded and alpha == 0.0
+
+
+def test_objective_gradient_matches_finite_differences():
+    config = gv.GradientVarianceConfig.default("CartPole", quick=True)
+    env = gv.build_env(config, "rk4")
+    y0 = gv._initial_state(env, config)
+    gain = jnp.asarray(gv.lqr_gain(env, config.state_weight, config.action_weight))
+    for kind, theta in (("open_loop", 0.1 * jnp.sin(jnp.arange(20.0))[:, None]), ("linear_feedback", gain)):
+        f = jax.jit(gv._objective(gv.stage_costs(env, y0, kind, 20, config.state_weight, config.action_weight)))
+        gradient = np.asarray(jax.jit(jax.grad(lambda t: f(t, 15)[0]))(theta)).reshape(-1)
+        direction = jax.random.normal(jax.random.key(2), theta.shape, dtype=theta.dtype)
+        h = 1e-5
+        central = float((f(theta + h * direction, 15)[0] - f(theta - h * direction, 15)[0]) / (2 * h))
+        assert abs(central - gradient @ np.asarray(direction).reshape(-1)) < 1e-7 * max(1.0, abs(central))
+        if kind == "open_loop":
+            # Steps past the horizon do not count.
+            assert np.all(gradient[15:] == 0)
+
+
+def test_lqr_gain_solves_the_discrete_riccati_equation():
+    scipy_linalg = pytest.importorskip("scipy.linalg")
+    env = gv.build_env(gv.GradientVarianceConfig.default("CartPole"), "rk4")
+    step = lambda y, a: gv._step(env, y, a)[0]  # noqa: E731
+    zero_y, zero_a = jnp.zeros(4), jnp.zeros(1)
+    A = np.asarray(jax.jacfwd(step)(zero_y, zero_a))
+    B = np.asarray(jax.jacfwd(step, argnums=1)(zero_y, zero_a))
+    dt = float(env.dt)
+    Q, R = dt * np.eye(4), 0.1 * dt * np.eye(1)
+    P = scipy_linalg.solve_discrete_are(A, B, Q, R)
+    expected = -np.linalg.solve(R + B.T @ P @ B, B.T @ P @ A)
+    gain = gv.lqr_gain(env, 1.0, 0.1)
+    np.testing.assert_allclose(gain, expected, rtol=1e-6)
+    assert np.max(np.abs(np.linalg.eigvals(A + B @ gain))) < 1
+
+
+def test_lyapunov_exponent_of_the_upright_cart_pole_is_its_unstable_eigenvalue():
+    # Linearised at upright with no force, theta'' = g theta / (l (4/3 - m / (M + m))): the
+    # stretching rate is the square root of that rate. From a 1e-9 tilt the fall stays
+    # linear for 4 s; the finite-time exponent is that rate plus a transient / T, so the
+    # stretching between 2 s and 4 s gives the rate itself.
+    config = gv.GradientVarianceConfig.default("CartPole", initial_state=(0.0, 0.0, 1e-9, 0.0))
+    env = gv.build_env(config, "rk4")
+    y0 = gv._initial_state(env, config)
+    exponents = np.asarray(gv.finite_time_lyapunov(env, y0, "open_loop", jnp.zeros((200, 1)), 200))
+    leading = np.max(exponents, axis=1)
+    rate = (leading[199] * 4.0 - leading[99] * 2.0) / 2.0
+    expected = math.sqrt(9.8 / (0.5 * (4 / 3 - 0.1 / 1.1)))
+    assert abs(rate - expected) < 0.01 * expected
+    # The flow conserves phase-space volume: the exponents sum to about zero.
+    assert abs(np.sum(exponents[-1])) < 0.01
+
+
+def test_float32_gradient_is_float32_and_loses_digits_with_the_horizon():
+    config = gv.GradientVarianceConfig.default("CartPole", quick=True, precision_horizon=60)
+    entry = gv.precision_loss(config, "rk4", "open_loop", np.zeros((1, 4)))
+    error = np.asarray(entry["relative_error"])
+    assert error.shape == (60,)
+    # float32 rounding, neither float64's nor garbage, after one step ...
+    assert 1e-9 < error[0] < 1e-4
+    # ... growing along the fall of the pole from upright.
+    assert error[-1] > 10 * error[0]
+
+
+def test_first_order_has_lower_variance_and_agrees_with_zeroth_order_on_cart_pole():
+    # CartPole through CartPoleContinuous (a force of action * 10 N), at the shortest horizon.
+    config = gv.GradientVarianceConfig.default(
+        "CartPole", quick=True, horizons=(10,), policies=("open_loop", "linear_feedback"),
+        lyapunov=False, precision=False, reference_samples=4096,
+    )
+    assert config.scene == "CartPoleContinuous"
+    result = gv.run_gradient_variance(config)
+    for kind in config.policies:
+        rows = [r for r in result.rows if r["policy"] == kind]
+        first, zeroth = _stats(rows, "first_order"), _stats(rows, "zeroth_order")
+        assert first["failed_samples"] == 0
+        assert first["variance"] < zeroth["variance"] / 10
+        difference = np.linalg.norm(np.subtract(first["estimate"], zeroth["estimate"]))
+        combined = math.hypot(first["gradient_norm_standard_error"], zeroth["gradient_norm_standard_error"])
+        assert difference < 2 * combined, kind
+        # And no bias against the independent reference on this smooth problem.
+        assert first["bias"] < 3 * first["bias_standard_error"], kind
+
+
+def test_bad_input_is_refused_with_the_parameter_named():
+    with pytest.raises(ValueError, match="sigma"):
+        gv.GradientVarianceConfig(sigmas=(0.0,))
+    with pytest.raises(ValueError, match="solver"):
+        gv.GradientVarianceConfig(solvers=("nope",))
+    with pytest.raises(ValueError, match="reference_samples"):
+        gv.GradientVarianceConfig(samples=100, reference_samples=150)
+    with pytest.raises(ValueError, match="clips or wraps"):
+        gv.build_env(gv.GradientVarianceConfig(scene="Pendulum"), "rk4")
+    assert main(["gradient-variance", "Pendulum", "--quick", "--no-plot", "--out", "unused"]) == 2
+
+
+@pytest.mark.slow
+def test_quick_run_on_double_cart_pole(tmp_path):
+    assert main(["gradient-variance", "DoubleCartPole", "--quick", "--out", str(tmp_path), "--no-plot"]) == 0
+    with open(tmp_path / "DoubleCartPole_gradient_variance.csv", newline="") as file:
+        rows = list(csv.DictReader(file))
+    assert set(rows[0]) == set(gv.GRADIENT_VARIANCE_CSV_COLUMNS)
+    first = {int(r["horizon"]): float(r["variance"]) for r in rows
+             if r["policy"] == "open_loop" and r["estimator"] == "first_order"}
+    # Chaos: the first-order variance grows at least tenfold from the shortest horizon to the longest.
+    assert first[max(first)] > 10 * first[min(first)]
+    record = json.loads((tmp_path / "DoubleCartPole_gradient_variance.json").read_text())
+    open_loop = next(c for c in record["cases"][0]["lyapunov"] if c["policy"] == "open_loop")
+    assert open_loop["leading_exponent"][-1] > 0
+    assert {entry["policy"] for entry in record["summary"]} == {"open_loop", "linear_feedback"}

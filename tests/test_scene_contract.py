@@ -1,0 +1,163 @@
+"""The scene contract, checked for every scene in `lerax_like.SCENES`.
+
+A scene is covered here the moment it is registered: its Gymnasium-style docstring, its
+declared `stochastic` against its behaviour, construction errors that name the parameter,
+`jit`/`vmap`/`grad` through 20 steps, and energy conservation wherever its dynamics claim
+it (checked against a Dopri8 solve at rtol 1e-12, not against the scene's own solver).
+"""
+
+import dataclasses
+import operator
+
+import diffrax
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import jax.random as jr
+import numpy as np
+import pytest
+
+import lerax_like as ll
+
+
+SECTIONS = ("Description", "Action Space", "Observation Space", "Rewards", "Starting State", "Episode End", "Arguments")
+NAMES = sorted(ll.SCENES)
+
+
+def test_the_registry_holds_the_ten_scenes():
+    assert len(ll.SCENES) == 10
+    assert "PlanarQuadrotor" in ll.SCENES
+    for name, scene in ll.SCENES.items():
+        assert scene.__name__ == name
+        assert getattr(ll, name) is scene  # re-exported from the one registry
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_docstring_has_gymnasium_sections(name):
+    doc = ll.SCENES[name].__doc__ or ""
+    missing = [section for section in SECTIONS if f"## {section}" not in doc]
+    assert not missing, f"{name}'s docstring lacks the sections {missing}"
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_metadata_is_declared(name):
+    scene = ll.SCENES[name]
+    assert isinstance(scene.stochastic, bool) and isinstance(scene.stiff, bool)
+    assert scene.gymnasium is None or isinstance(scene.gymnasium, ll.GymnasiumSpec)
+    assert getattr(scene, "__final__", False), f"{name} is concrete: mark it @final"
+    env = scene()
+    if scene.gymnasium is not None:
+        for _, path in scene.gymnasium.attributes:
+            operator.attrgetter(path)(env)  # every mapped attribute exists
+
+
+def _sample_action(env, key):
+    return env.action_space.sample(key=key)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_declared_stochastic_matches_behaviour(name):
+    env = ll.SCENES[name]()
+    state, _, _ = env.reset(key=jr.key(0))
+    action = _sample_action(env, jr.key(1))
+    first = env.advance(state, action, key=jr.key(2))
+    second = env.advance(state, action, key=jr.key(3))
+    same = all(np.array_equal(a, b) for a, b in zip(jax.tree.leaves(first), jax.tree.leaves(second)))
+    if not env.stochastic:
+        assert same, f"{name} declares stochastic=False but its step depends on the key"
+
+
+def _parameter_fields(module):
+    return [field for field in dataclasses.fields(module) if field.metadata.get("range") is not None]
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_construction_errors_name_the_parameter(name):
+    scene = ll.SCENES[name]
+    env = scene()
+    # The task's own parameters and, flat, the dynamics' parameters.
+    names = [field.name for field in _parameter_fields(scene)]
+    names += [field.name for field in _parameter_fields(env.dynamics)]
+    assert names, f"{name} declares no checked parameter"
+    for parameter in names:
+        with pytest.raises(ValueError, match=parameter):
+            scene(**{parameter: np.nan})
+        with pytest.raises(TypeError, match=parameter):
+            scene(**{parameter: "heavy"})
+    with pytest.raises(TypeError, match="no_such_parameter"):
+        scene(no_such_parameter=1.0)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_dynamics_may_be_given_as_a_module(name):
+    scene = ll.SCENES[name]
+    dynamics = scene().dynamics
+    env = scene(dynamics=dynamics)
+    assert env.dynamics is dynamics
+    first = next(field.name for field in dataclasses.fields(dynamics) if eqx.is_array(getattr(dynamics, field.name)))
+    with pytest.raises(TypeError, match="not both"):
+        scene(dynamics=dynamics, **{first: getattr(dynamics, first)})
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_jit_vmap_and_grad_through_twenty_steps(name):
+    env = ll.SCENES[name]()
+    starts = jax.vmap(lambda key: env.reset(key=key)[0])(jr.split(jr.key(0), 3))
+    actions = jax.vmap(lambda key: _sample_action(env, key))(jr.split(jr.key(1), 20))
+
+    @eqx.filter_jit
+    def loss(env, state):
+        ys, info = ll.rollout(env, state, actions)
+        return jnp.sum(ys[-1] ** 2) + jnp.sum(info["reward"]), info
+
+    def batched(env):
+        values, info = jax.vmap(loss, in_axes=(None, 0))(env, starts)
+        return jnp.mean(values), info
+
+    (value, info), gradient = eqx.filter_value_and_grad(batched, has_aux=True)(env)
+    assert np.isfinite(float(value))
+    assert np.all(np.asarray(info["solver_ok"]))
+    leaves = jax.tree.leaves(eqx.filter(gradient.dynamics, eqx.is_inexact_array))
+    assert leaves and all(np.all(np.isfinite(np.asarray(leaf))) for leaf in leaves)
+
+
+def _tight(env):
+    controller = diffrax.PIDController(rtol=1e-12, atol=1e-12)
+    return eqx.tree_at(lambda e: e.integrator, env, ll.make_integrator("dopri8", controller, max_steps=100_000))
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_energy_is_conserved_with_zero_input_where_claimed(name):
+    with jax.enable_x64(True):
+        env = ll.SCENES[name]()
+        physics = env.physics
+        if not (isinstance(physics, ll.AbstractConservativeDynamics) and physics.conserves_energy):
+            pytest.skip(f"{name}'s dynamics claim no conserved energy")
+        env = _tight(env)
+        state, _, _ = env.reset(key=jr.key(0))
+        zero = jnp.zeros_like(env.physical_input(_sample_action(env, jr.key(1))))
+
+        def body(state, _):
+            state, info = env.evolve(state, zero)
+            return state, (physics.energy(state.y), info["solver_ok"])
+
+        _, (energies, ok) = jax.lax.scan(body, state, None, length=50)
+        assert np.all(np.asarray(ok))
+        start = float(physics.energy(state.y))
+        scale = max(1.0, abs(start), float(jnp.max(jnp.abs(energies))))
+        drift = float(jnp.max(jnp.abs(energies - start)))
+        assert drift < 1e-9 * scale, f"{name}: energy drifts by {drift:.2e} over 50 steps"
+
+
+def test_acrobot_nips_claims_no_energy_and_indeed_conserves_none():
+    # The NeurIPS equations drop a Coriolis term: the book energy is not conserved.
+    with jax.enable_x64(True):
+        env = ll.Acrobot(equations="nips")
+        assert not env.physics.conserves_energy
+        env = _tight(eqx.tree_at(lambda e: e.max_velocity_1, env, jnp.inf))
+        state = ll.EnvState(y=jnp.array([1.0, 0.5, 0.0, 0.0]), steps=jnp.asarray(0))
+        energy = env.physics.energy
+        end = state
+        for _ in range(20):
+            end, _ = env.evolve(end, jnp.zeros(1))
+        assert abs(float(energy(end.y) - energy(state.y))) > 1e-3
