@@ -112,7 +112,7 @@ def main(argv=None) -> None:
     parser.add_argument("--output", type=Path, default=None, help="the CSV file (default: OUT/gym_vector.csv)")
     args = parser.parse_args(argv)
     num_envs = args.num_envs or ([1024] if args.quick else [1024, 16384])
-    repeats = args.repeats or (3 if args.quick else 9)
+    repeats = args.repeats or (3 if args.quick else 25)
     output = args.output or (args.out or results_dir(args.quick)) / "gym_vector.csv"
 
     header = {
@@ -125,9 +125,10 @@ def main(argv=None) -> None:
     print(header, flush=True)
     rows = []
     for n in num_envs:
-        # Fewer steps per block for the large batches (a SyncVectorEnv step of 16384 envs
-        # takes a tenth of a second); enough that a block lasts milliseconds.
-        steps = args.steps or ((10 if args.quick else 30) if n <= 4096 else (5 if args.quick else 10))
+        # Short blocks, many of them: on a loaded machine the fastest of many short blocks
+        # is the one least disturbed. Fewer steps for the large batches (a SyncVectorEnv
+        # step of 16384 envs takes a tenth of a second).
+        steps = args.steps or (10 if n <= 4096 else 3)
         for name in args.ids:
             for dtype in args.dtypes:
                 with_peer = not args.no_peer and dtype == "float64"
