@@ -61,6 +61,11 @@ def _study(arguments) -> int:
         best = cheapest_at(result.rows, target)
         verdict = "none reached it" if best is None else f"{best['label']} at {best['setting']} ({best['seconds']:.2e} s)"
         print(f"cheapest at error <= {target:g} ({config.schedules[0]} actions): {verdict}")
+    return _finish(arguments, plot, elapsed, paths)
+
+
+def _finish(arguments, plot: bool, elapsed: float, paths: dict[str, str]) -> int:
+    """The closing lines of a study: the plot skipped (and why), the time, the files."""
     print()
     if not arguments.no_plot and not plot:
         print(f"plot skipped: matplotlib is not installed ({PLOT_HINT})")
@@ -104,11 +109,7 @@ def _gradients(arguments) -> int:
             print(f"{entry['solver']:<9} order {entry['note']}")
         else:
             print(f"{entry['solver']:<9} order {entry['order']:.2f} ({entry['points']} points)")
-    print()
-    if not arguments.no_plot and not plot:
-        print(f"plot skipped: matplotlib is not installed ({PLOT_HINT})")
-    print(f"study took {elapsed:.1f} s; wrote " + ", ".join(paths.values()))
-    return 0
+    return _finish(arguments, plot, elapsed, paths)
 
 
 def _gradient_variance(arguments) -> int:

@@ -457,6 +457,18 @@ class Integrator(eqx.Module):
             and isinstance(self.adjoint, (diffrax.RecursiveCheckpointAdjoint, diffrax.ForwardMode))
         )
 
+    def _term_and_first_step(self, vector_field, dt, projection, velocity_indices):
+        """The term to solve and the first step `integrate` and `dense_states` both take."""
+        # An adaptive controller picks its own first step (Hairer's heuristic). A first
+        # trial step of the whole `dt` can overflow on a stiff problem, and the
+        # PIDController turns the resulting NaN error into a NaN step size that rejects
+        # every later step (Van der Pol, mu=1e3, dt=10: 0 of 4096 steps accepted).
+        dt0 = dt / self.substeps if isinstance(self.stepsize_controller, diffrax.ConstantStepSize) else None
+        if projection is None and velocity_indices is None:
+            return diffrax.ODETerm(vector_field), dt0
+        optional = {} if projection is None else {"projection": projection}
+        return ProjectedODETerm(vector_field, velocity_indices=velocity_indices, **optional), dt0
+
     def integrate(
         self,
         vector_field: Callable[[ScalarLike, State, Input], State],
@@ -481,16 +493,7 @@ class Integrator(eqx.Module):
         finder diverged) or the state is not finite; the state is then not to be used.
         """
         dt = jnp.asarray(dt, dtype=y0.dtype)
-        # An adaptive controller picks its own first step (Hairer's heuristic). A first
-        # trial step of the whole `dt` can overflow on a stiff problem, and the
-        # PIDController turns the resulting NaN error into a NaN step size that rejects
-        # every later step (Van der Pol, mu=1e3, dt=10: 0 of 4096 steps accepted).
-        dt0 = dt / self.substeps if isinstance(self.stepsize_controller, diffrax.ConstantStepSize) else None
-        if projection is None and velocity_indices is None:
-            term = diffrax.ODETerm(vector_field)
-        else:
-            optional = {} if projection is None else {"projection": projection}
-            term = ProjectedODETerm(vector_field, velocity_indices=velocity_indices, **optional)
+        term, dt0 = self._term_and_first_step(vector_field, dt, projection, velocity_indices)
         if self._single_step:
             return self._step_once(term, y0, u, dt, projection)
         solution = diffrax.diffeqsolve(
@@ -531,12 +534,7 @@ class Integrator(eqx.Module):
         solve succeeded.
         """
         dt = jnp.asarray(dt, dtype=y0.dtype)
-        dt0 = dt / self.substeps if isinstance(self.stepsize_controller, diffrax.ConstantStepSize) else None
-        if projection is None and velocity_indices is None:
-            term = diffrax.ODETerm(vector_field)
-        else:
-            optional = {} if projection is None else {"projection": projection}
-            term = ProjectedODETerm(vector_field, velocity_indices=velocity_indices, **optional)
+        term, dt0 = self._term_and_first_step(vector_field, dt, projection, velocity_indices)
         solution = diffrax.diffeqsolve(
             term,
             self.solver,

@@ -22,20 +22,7 @@ def _sb3():
     return _vec_env
 
 
-def make_vec_env(
-    env_id: str,
-    n_envs: int = 1,
-    seed: int | None = None,
-    start_index: int = 0,
-    monitor_dir: str | None = None,
-    wrapper_class=None,
-    env_kwargs: dict[str, Any] | None = None,
-    vec_env_cls=None,
-    vec_env_kwargs: dict[str, Any] | None = None,
-    monitor_kwargs: dict[str, Any] | None = None,
-    wrapper_kwargs: dict[str, Any] | None = None,
-    dtype: str = "float64",
-):
+def make_vec_env(env_id: str, n_envs: int = 1, seed: int | None = None, **options: Any):
     """A monitored SB3 `VecEnv` of `n_envs` copies of the registered id `env_id`, stepped together.
 
     Mirrors `stable_baselines3.common.env_util.make_vec_env`: the same arguments, seeds
@@ -51,20 +38,9 @@ def make_vec_env(
     result in an SB3 `VecEnvWrapper` instead) and `vec_env_cls`/`vec_env_kwargs` (the
     batch is the vector env).
     """
-    return _sb3().make_vec_env(
-        env_id,
-        n_envs=n_envs,
-        seed=seed,
-        start_index=start_index,
-        monitor_dir=monitor_dir,
-        wrapper_class=wrapper_class,
-        env_kwargs=env_kwargs,
-        vec_env_cls=vec_env_cls,
-        vec_env_kwargs=vec_env_kwargs,
-        monitor_kwargs=monitor_kwargs,
-        wrapper_kwargs=wrapper_kwargs,
-        dtype=dtype,
-    )
+    # The keywords (start_index, monitor_dir, env_kwargs, monitor_kwargs, dtype, ...) are
+    # SB3's; `_vec_env.make_vec_env` spells them out and checks them.
+    return _sb3().make_vec_env(env_id, n_envs=n_envs, seed=seed, **options)
 
 
 def __getattr__(name: str):
