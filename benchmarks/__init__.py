@@ -60,6 +60,7 @@ BENCHMARKS = {
         Benchmark("gym_vector", "the Gymnasium-layer vector env against Gymnasium's vector CartPole"),
         Benchmark("stability", "stiff and extreme cases: status and error per solver, and Kvaerno5's root finders", (_STUDY,)),
         Benchmark("domain_randomisation", "a policy trained over pole masses against one trained at the nominal mass", (_OPTAX, _STUDY)),
+        Benchmark("sb3_vector", "PPO on lerax_like.sb3.make_vec_env against SB3's own make_vec_env, and the VecEnvs alone", (_SB3,)),
         Benchmark("ppo_baseline", "PPO (Stable-Baselines3) on the policy-learning task", (_SB3,)),
         Benchmark(
             "sharded_rollout", "rollouts sharded over devices equal the unsharded run",

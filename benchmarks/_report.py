@@ -401,6 +401,28 @@ def domain_randomisation(folder, link):
     return lines
 
 
+def sb3_vector(folder, link):
+    data = _read_json(folder, "sb3_vector.json")
+    if data is None:
+        return []
+    recipe, seconds, returns = data["recipe"], data["fastest_seconds"], data["mean_return"]
+    speed = data["env_steps_per_s"]
+    return [
+        f"{recipe['algorithm']} ({recipe['policy']}, seed {recipe['seed']}, n_steps {recipe['n_steps']}, "
+        f"{recipe['n_envs']} envs, {recipe['total_timesteps']} steps), evaluated on Gymnasium's CartPole-v1 "
+        f"({recipe['evaluation']}); load average {data['load_average_before'][0]:.0f} before, "
+        f"{data['load_average_after'][0]:.0f} after:", "",
+        *_table(
+            ["vec env", "fastest training (s)", "mean return"],
+            [["SB3's make_vec_env (DummyVecEnv)", f"{seconds['gymnasium']:.1f}", f"{returns['gymnasium']:.1f}"],
+             ["lerax_like.sb3.make_vec_env", f"{seconds['lerax_like']:.1f}", f"{returns['lerax_like']:.1f}"]],
+        ),
+        f"Return ratio {data['return_ratio_lerax_like_vs_sb3']:.2f}, wall-time ratio "
+        f"{data['wall_time_ratio_lerax_like_vs_sb3']:.3f}. The VecEnvs alone, random actions: "
+        f"{data['env_speedup_n8']:.2f}x SB3's steps per second at 8 envs, {data['env_speedup_n256']:.1f}x at 256.", "",
+    ]
+
+
 def ppo_baseline(folder, link):
     data = _read_json(folder, "ppo_baseline.json")
     if data is None:
@@ -437,6 +459,7 @@ SECTIONS = {
     "gym_vector": gym_vector,
     "stability": stability,
     "domain_randomisation": domain_randomisation,
+    "sb3_vector": sb3_vector,
     "ppo_baseline": ppo_baseline,
     "sharded_rollout": sharded_rollout,
 }
