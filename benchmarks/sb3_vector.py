@@ -1,7 +1,7 @@
 """PPO on `lerax_like.sb3.make_vec_env` against PPO on SB3's own `make_vec_env`, in one run.
 
-    python benchmarks/sb3_vector.py            # 40k steps, two rounds (ABBA order)
-    python benchmarks/sb3_vector.py --quick    # 4k steps, one round
+    python -m benchmarks sb3_vector            # 40k steps, two rounds (ABBA order)
+    python -m benchmarks sb3_vector --quick    # 4k steps, one round
 
 The issue's recipe: PPO (`MlpPolicy`, seed 0, `n_steps=256`, other settings SB3's defaults,
 CPU) on `make_vec_env("lerax_like/CartPole-v1", n_envs=8, seed=0)` and on SB3's
@@ -14,7 +14,7 @@ is shared; the same for both).
 
 Beside it, the env alone: steps per second of random actions through each `VecEnv`
 (`step_async`/`step_wait`, SB3's infos, autoreset) at n_envs = 8 and 256.
-Writes benchmarks/results/sb3_vector.json (sb3_vector_quick.json with --quick).
+Writes sb3_vector.json under `--out` (default benchmarks/results, or results/quick with --quick).
 """
 
 import argparse
@@ -22,18 +22,15 @@ import datetime
 import json
 import os
 import platform
-import sys
 import time
 from pathlib import Path
 
 import gymnasium
 import numpy as np
 
-
-HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parent))
-import lerax_like  # noqa: E402
-import lerax_like.sb3  # noqa: E402
+import lerax_like
+import lerax_like.sb3
+from benchmarks import results_dir
 
 
 def make(kind: str, n_envs: int, seed: int):
@@ -76,15 +73,15 @@ def env_throughput(kind: str, n_envs: int, steps: int, repeats: int) -> float:
     return n_envs * steps / best
 
 
-def main() -> None:
+def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--timesteps", type=int, default=None)
-    parser.add_argument("--output", type=Path, default=None)
-    args = parser.parse_args()
+    parser.add_argument("--out", type=Path, default=None, help="folder (default: benchmarks/results[/quick])")
+    args = parser.parse_args(argv)
     timesteps = args.timesteps or (4_000 if args.quick else 40_000)
     order = ["gymnasium", "lerax_like"] if args.quick else ["gymnasium", "lerax_like", "lerax_like", "gymnasium"]
-    output = args.output or HERE / "results" / ("sb3_vector_quick.json" if args.quick else "sb3_vector.json")
+    output = (args.out or results_dir(args.quick)) / "sb3_vector.json"
 
     import stable_baselines3
     import torch
