@@ -57,11 +57,11 @@ BENCHMARKS = {
         Benchmark("compile_time", "compile time of 1000-step scanned programs, beside gymnax", (_GYMNAX,)),
         Benchmark("adaptive_vmap", "adaptive solvers under vmap: one hard env in a batch, and the remedies"),
         Benchmark("latency", "one Gymnasium-layer step against the JAX floor and Gymnasium's own step"),
-        Benchmark("gym_vector", "the Gymnasium-layer vector env against Gymnasium's vector CartPole"),
+        Benchmark("gym_vector", "the Gymnasium-layer vector env of every id against the XLA floor and Gymnasium's vector envs"),
         Benchmark("stability", "stiff and extreme cases: status and error per solver, and Kvaerno5's root finders", (_STUDY,)),
         Benchmark("domain_randomisation", "a policy trained over pole masses against one trained at the nominal mass", (_OPTAX, _STUDY)),
-        Benchmark("sb3_vector", "PPO on lerax_like.sb3.make_vec_env against SB3's own make_vec_env, and the VecEnvs alone", (_SB3,)),
         Benchmark("ppo_baseline", "PPO (Stable-Baselines3) on the policy-learning task", (_SB3,)),
+        Benchmark("sb3_vector", "PPO on lerax_like.sb3.make_vec_env against SB3's make_vec_env; the VecEnvs' speed", (_SB3,)),
         Benchmark(
             "sharded_rollout", "rollouts sharded over devices equal the unsharded run",
             environment=(("XLA_FLAGS", "--xla_force_host_platform_device_count=4"),),

@@ -401,28 +401,6 @@ def domain_randomisation(folder, link):
     return lines
 
 
-def sb3_vector(folder, link):
-    data = _read_json(folder, "sb3_vector.json")
-    if data is None:
-        return []
-    recipe, seconds, returns = data["recipe"], data["fastest_seconds"], data["mean_return"]
-    speed = data["env_steps_per_s"]
-    return [
-        f"{recipe['algorithm']} ({recipe['policy']}, seed {recipe['seed']}, n_steps {recipe['n_steps']}, "
-        f"{recipe['n_envs']} envs, {recipe['total_timesteps']} steps), evaluated on Gymnasium's CartPole-v1 "
-        f"({recipe['evaluation']}); load average {data['load_average_before'][0]:.0f} before, "
-        f"{data['load_average_after'][0]:.0f} after:", "",
-        *_table(
-            ["vec env", "fastest training (s)", "mean return"],
-            [["SB3's make_vec_env (DummyVecEnv)", f"{seconds['gymnasium']:.1f}", f"{returns['gymnasium']:.1f}"],
-             ["lerax_like.sb3.make_vec_env", f"{seconds['lerax_like']:.1f}", f"{returns['lerax_like']:.1f}"]],
-        ),
-        f"Return ratio {data['return_ratio_lerax_like_vs_sb3']:.2f}, wall-time ratio "
-        f"{data['wall_time_ratio_lerax_like_vs_sb3']:.3f}. The VecEnvs alone, random actions: "
-        f"{data['env_speedup_n8']:.2f}x SB3's steps per second at 8 envs, {data['env_speedup_n256']:.1f}x at 256.", "",
-    ]
-
-
 def ppo_baseline(folder, link):
     data = _read_json(folder, "ppo_baseline.json")
     if data is None:
@@ -434,6 +412,31 @@ def ppo_baseline(folder, link):
         f"deterministic policy balanced {balanced} of {starts} random starts for 500 steps (mean episode length "
         f"{data['mean_episode_length']:g}).", "",
     ]
+
+
+def sb3_vector(folder, link):
+    data = _read_json(folder, "sb3_vector.json")
+    if data is None:
+        return []
+    recipe, seconds, returns = data["recipe"], data["fastest_seconds"], data["mean_return"]
+    speed = data["env_steps_per_s"]
+    lines = [
+        f"PPO ({recipe['policy']}, seed {recipe['seed']}, n_steps={recipe['n_steps']}, {recipe['n_envs']} envs, "
+        f"{recipe['total_timesteps']} steps; {recipe['evaluation']}), runs in the order {', '.join(data['order'])}; "
+        f"load average {data['load_average_before'][0]} before, {data['load_average_after'][0]} after:", "",
+    ]
+    lines += _table(
+        ["VecEnv", "mean return", "fastest training (s)"],
+        [["`lerax_like.sb3.make_vec_env`", f"{returns['lerax_like']:g}", f"{seconds['lerax_like']:.1f}"],
+         ["SB3's `make_vec_env` (DummyVecEnv)", f"{returns['gymnasium']:g}", f"{seconds['gymnasium']:.1f}"]],
+    )
+    lines += [
+        f"Return ratio {data['return_ratio_lerax_like_vs_sb3']:.2f}, wall-time ratio "
+        f"{data['wall_time_ratio_lerax_like_vs_sb3']:.2f} (lerax_like / SB3). The VecEnvs alone, random actions: "
+        f"{speed['lerax_like_n8']:,} against {speed['gymnasium_n8']:,} steps/s at 8 envs, "
+        f"{speed['lerax_like_n256']:,} against {speed['gymnasium_n256']:,} at 256.", "",
+    ]
+    return lines
 
 
 def sharded_rollout(folder, link):
@@ -459,8 +462,8 @@ SECTIONS = {
     "gym_vector": gym_vector,
     "stability": stability,
     "domain_randomisation": domain_randomisation,
-    "sb3_vector": sb3_vector,
     "ppo_baseline": ppo_baseline,
+    "sb3_vector": sb3_vector,
     "sharded_rollout": sharded_rollout,
 }
 assert set(SECTIONS) == set(BENCHMARKS), "every benchmark needs a section"

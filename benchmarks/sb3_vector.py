@@ -1,7 +1,7 @@
 """PPO on `lerax_like.sb3.make_vec_env` against PPO on SB3's own `make_vec_env`, in one run.
 
     python -m benchmarks sb3_vector            # 40k steps, two rounds (ABBA order)
-    python -m benchmarks sb3_vector --quick    # 4k steps, one round, into results/quick/
+    python -m benchmarks sb3_vector --quick    # 4k steps, one round
 
 The issue's recipe: PPO (`MlpPolicy`, seed 0, `n_steps=256`, other settings SB3's defaults,
 CPU) on `make_vec_env("lerax_like/CartPole-v1", n_envs=8, seed=0)` and on SB3's
@@ -14,7 +14,7 @@ is shared; the same for both).
 
 Beside it, the env alone: steps per second of random actions through each `VecEnv`
 (`step_async`/`step_wait`, SB3's infos, autoreset) at n_envs = 8 and 256.
-Writes benchmarks/results/sb3_vector.json (results/quick/ with --quick).
+Writes sb3_vector.json under `--out` (default benchmarks/results, or results/quick with --quick).
 """
 
 import argparse
@@ -28,11 +28,9 @@ from pathlib import Path
 import gymnasium
 import numpy as np
 
+import lerax_like
+import lerax_like.sb3
 from benchmarks import results_dir
-
-
-import lerax_like  # noqa: E402
-import lerax_like.sb3  # noqa: E402
 
 
 def make(kind: str, n_envs: int, seed: int):
@@ -79,11 +77,11 @@ def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--timesteps", type=int, default=None)
-    parser.add_argument("--output", type=Path, default=None)
+    parser.add_argument("--out", type=Path, default=None, help="folder (default: benchmarks/results[/quick])")
     args = parser.parse_args(argv)
     timesteps = args.timesteps or (4_000 if args.quick else 40_000)
     order = ["gymnasium", "lerax_like"] if args.quick else ["gymnasium", "lerax_like", "lerax_like", "gymnasium"]
-    output = args.output or results_dir(args.quick) / "sb3_vector.json"
+    output = (args.out or results_dir(args.quick)) / "sb3_vector.json"
 
     import stable_baselines3
     import torch
