@@ -36,7 +36,7 @@ def _solvers_from(arguments, command: str):
 
 def _study(arguments) -> int:
     from .analysis import StudyConfig, run_study, sweeps_for, write_study
-    from .analysis.report import PLOT_HINT, cheapest_at, format_orders, format_table, matplotlib_available
+    from .analysis.report import cheapest_at, format_orders, format_table, matplotlib_available
     from .analysis.scenes import SCENES
 
     overrides = {}
@@ -66,6 +66,8 @@ def _study(arguments) -> int:
 
 def _finish(arguments, plot: bool, elapsed: float, paths: dict[str, str]) -> int:
     """The closing lines of a study: the plot skipped (and why), the time, the files."""
+    from .analysis.report import PLOT_HINT
+
     print()
     if not arguments.no_plot and not plot:
         print(f"plot skipped: matplotlib is not installed ({PLOT_HINT})")
