@@ -73,6 +73,25 @@ def _uses_controller_tolerances(solver: diffrax.AbstractSolver) -> bool:
     )
 
 
+class GuardedPIDController(diffrax.PIDController):
+    """`diffrax.PIDController`, which also shrinks the step after a trial step that diverged to infinity.
+
+    diffrax 0.7.2 scales a step's error by `atol + rtol max(|y0|, |y1|)`, with `y0` alone
+    when the candidate `y1` is NaN. A root finder that diverges to infinity (Kvaerno4 on
+    Van der Pol at `mu = 1e3`) gives an infinite `y1` and error: `inf / inf` is NaN, so is
+    the next step size, and every later step is rejected until `max_steps` (0 of 100000
+    accepted). Here a non-finite candidate counts as NaN with an infinite error, which the
+    controller rejects and answers with a step `factormin` times smaller. `Integrator`
+    solves with this in place of a plain `PIDController` of the same settings.
+    """
+
+    def adapt_step_size(self, t0, t1, y0, y1_candidate, args, y_error, error_order, controller_state):
+        diverged = jnp.any(jnp.stack([jnp.any(~jnp.isfinite(y)) for y in jax.tree.leaves(y1_candidate)]))
+        y1_candidate = jax.tree.map(lambda y: jnp.where(diverged, jnp.nan, y), y1_candidate)
+        y_error = jax.tree.map(lambda e: jnp.where(diverged, jnp.inf, e), y_error)
+        return super().adapt_step_size(t0, t1, y0, y1_candidate, args, y_error, error_order, controller_state)
+
+
 def _adaptive(rtol: float, atol: float) -> Callable[[], diffrax.PIDController]:
     return lambda: diffrax.PIDController(rtol=rtol, atol=atol)
 
@@ -496,19 +515,7 @@ class Integrator(eqx.Module):
         term, dt0 = self._term_and_first_step(vector_field, dt, projection, velocity_indices)
         if self._single_step:
             return self._step_once(term, y0, u, dt, projection)
-        solution = diffrax.diffeqsolve(
-            term,
-            self.solver,
-            t0=jnp.zeros((), dtype=y0.dtype),
-            t1=dt,
-            dt0=dt0,
-            y0=y0,
-            args=u,
-            stepsize_controller=self.stepsize_controller,
-            max_steps=self.max_steps,
-            adjoint=self.adjoint,
-            throw=False,
-        )
+        solution = self._solve(term, y0, u, dt, dt0, adjoint=self.adjoint)
         steps: IntScalar = solution.stats["num_accepted_steps"]
         rejected: IntScalar = solution.stats["num_steps"] - steps
         solved = solution.result == diffrax.RESULTS.successful
@@ -535,20 +542,18 @@ class Integrator(eqx.Module):
         """
         dt = jnp.asarray(dt, dtype=y0.dtype)
         term, dt0 = self._term_and_first_step(vector_field, dt, projection, velocity_indices)
-        solution = diffrax.diffeqsolve(
-            term,
-            self.solver,
-            t0=jnp.zeros((), dtype=y0.dtype),
-            t1=dt,
-            dt0=dt0,
-            y0=y0,
-            args=u,
-            saveat=diffrax.SaveAt(ts=jnp.asarray(ts, dtype=y0.dtype)),
-            stepsize_controller=self.stepsize_controller,
-            max_steps=self.max_steps,
-            throw=False,
-        )
+        solution = self._solve(term, y0, u, dt, dt0, saveat=diffrax.SaveAt(ts=jnp.asarray(ts, dtype=y0.dtype)))
         return solution.ys, solution.result == diffrax.RESULTS.successful
+
+    def _solve(self, term, y0, u, dt, dt0, **options) -> diffrax.Solution:
+        """`diffeqsolve` over `[0, dt]` with this integrator's solver, controller and budget."""
+        controller = self.stepsize_controller
+        if type(controller) is diffrax.PIDController:
+            controller = GuardedPIDController(**{f.name: getattr(controller, f.name) for f in dataclasses.fields(controller)})
+        return diffrax.diffeqsolve(
+            term, self.solver, t0=jnp.zeros((), dtype=y0.dtype), t1=dt, dt0=dt0, y0=y0, args=u,
+            stepsize_controller=controller, max_steps=self.max_steps, throw=False, **options,
+        )
 
     def _step_once(self, term, y0, u, dt, projection):
         solver = self.solver

@@ -24,12 +24,12 @@ def _rollout_info(env, y0, steps):
     return eqx.filter_jit(ll.rollout)(env, state, actions, key=jax.random.key(0))
 
 
-def _van_der_pol_reference(mu, y0, t1):
+def _van_der_pol_reference(mu, y0, t1, force=0.0):
     from scipy.integrate import solve_ivp
 
     def vector_field(t, y):
         x, v = y
-        return [v, mu * (1 - x * x) * v - x]
+        return [v, mu * (1 - x * x) * v - x + force]
 
     def jacobian(t, y):
         x, v = y
@@ -52,6 +52,34 @@ def test_van_der_pol_kvaerno5_reaches_t3000_as_radau():
     reference = _van_der_pol_reference(1000.0, [2.0, 0.0], 3000.0)
     # Relative per component: the velocity is small (~1e-3) at t = 3000, on a slow branch.
     np.testing.assert_allclose(np.asarray(ys[-1]), reference, rtol=1e-3)
+
+
+@pytest.mark.parametrize("preset", ["kvaerno3", "kvaerno4", "kvaerno5"])
+def test_a_diverged_trial_step_is_rejected_and_retried_smaller(preset):
+    # From this state (the second start of `lerax-like study VanDerPol`), Kvaerno4's
+    # second trial step diverges to infinity; a plain diffrax 0.7.2 PIDController then
+    # computes a NaN step size and rejects all 100000 steps of the budget.
+    y0, force = [-0.19642639, 0.17118835], -0.22940977
+    env = ll.VanDerPol(mu=1000.0, dt=30.0, solver=preset, stepsize_controller=diffrax.PIDController(rtol=1e-4, atol=1e-7))
+    state = ll.EnvState(y=jnp.asarray(y0), steps=jnp.zeros((), dtype=int))
+    next_state, info = eqx.filter_jit(lambda env, state: env.transition(state, jnp.asarray([force]), key=None))(env, state)
+    assert bool(info["solver_ok"])
+    assert int(info["solver_steps"]) + int(info["solver_rejected_steps"]) < 500
+    reference = _van_der_pol_reference(1000.0, y0, 30.0, force)
+    # At rtol 1e-4 the global error on the slow branch is a few times the tolerance.
+    np.testing.assert_allclose(np.asarray(next_state.y), reference, rtol=1e-2)
+
+
+def test_guarded_controller_shrinks_the_step_after_an_infinite_candidate():
+    controller = ll.integrate.GuardedPIDController(rtol=1e-4, atol=1e-7)
+    y0 = jnp.array([1.0, 2.0])
+    state = (jnp.asarray(1.0), jnp.asarray(1.0), jnp.asarray(False))
+    keep, next_t0, next_t1, _, _, _ = controller.adapt_step_size(
+        0.0, 0.5, y0, jnp.array([jnp.inf, jnp.inf]), None, jnp.array([jnp.inf, jnp.inf]), 4, state
+    )
+    assert not bool(keep)
+    assert float(next_t0) == 0.0
+    assert float(next_t1) == pytest.approx(0.5 * controller.factormin)
 
 
 def test_van_der_pol_tsit5_reports_exhausted_budget_without_raising():
