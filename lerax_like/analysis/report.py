@@ -301,6 +301,7 @@ def plot_work_precision(
     color_of = {name: colors[i % len(colors)] for i, name in enumerate(solver_names)}
     floor = max(row["reference_floor"] for row in selected)
     handles = {}
+    labelled: list[tuple] = []  # (log10 x, log10 y, annotation, first text, series) of each label placed
 
     for label in labels:
         line = [row for row in selected if row["label"] == label]
@@ -313,8 +314,17 @@ def plot_work_precision(
         (handle,) = cost_axis.loglog(errors, cost, **style)
         handles[label] = handle
         for row, x, y in zip(line, errors, cost):
-            cost_axis.annotate(_point_label(row), (x, y), xytext=(3, 3), textcoords="offset points", fontsize=6,
-                               color=color, alpha=0.9)
+            # A label that would print over another (Heun's and the midpoint rule's steps
+            # sit on top of each other; dopri8's tolerances stack at the floor) is left to the first,
+            # which names the stack of one solver's settings ("1e-4..1e-12").
+            text, u, v = _point_label(row), math.log10(x), math.log10(y)
+            near = next((entry for entry in labelled if abs(u - entry[0]) < 0.4 and abs(v - entry[1]) < 0.12), None)
+            if near is None:
+                annotation = cost_axis.annotate(text, (x, y), xytext=(3, 3), textcoords="offset points",
+                                                fontsize=6, color=color, alpha=0.9)
+                labelled.append((u, v, annotation, text, label))
+            elif text != near[3] and label == near[4]:
+                near[2].set_text(f"{near[3]}..{text}")
         time_axis = axes_by_panel["time"]
         time_axis.loglog(errors, [row["seconds"] for row in line], **style)
         unresolved = [(x, row["seconds"]) for row, x in zip(line, errors) if _timing_unresolved(row)]
