@@ -51,6 +51,7 @@ BENCHMARKS = {
         Benchmark("work_precision", "error against run time of every solver, per scene (the main job)", (_STUDY, _PLOTS)),
         Benchmark("gradient_error", "gradient error against run time, per solver and step", (_STUDY, _PLOTS)),
         Benchmark("gradient_variance", "first- against zeroth-order gradient estimators against the horizon", (_STUDY, _PLOTS)),
+        Benchmark("gradient_precision", "float32 against float64 gradients: the horizon where float32 loses the leading digit, per scene"),
         Benchmark("gradient_memory", "memory and time of a 1000-step rollout's gradient: storing against checkpointing"),
         Benchmark("throughput", "env steps per second against the number of envs, beside gymnax and Gymnasium", (_GYMNAX, _PLOTS)),
         Benchmark("profile_step", "where the time of a vmapped env step goes, part by part, beside gymnax", (_GYMNAX,)),

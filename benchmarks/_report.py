@@ -189,6 +189,26 @@ def gradient_variance(folder, link):
     )
 
 
+def gradient_precision(folder, link):
+    rows = _read_csv(folder, "gradient_precision.csv")
+    if rows is None:
+        return []
+    horizons = list(dict.fromkeys(row["horizon"] for row in rows))
+    lines = {}
+    for row in rows:
+        key = (row["case"], row["solver"], row["rtol"], row["atol"], row["policy"])
+        cells = lines.setdefault(key, {"lost": row["first_digit_lost_horizon"], "errors": {}, "failed": []})
+        cells["errors"][row["horizon"]] = _g(row["relative_error"], 2)
+        if row["float32_solves_ok"] != "True":
+            cells["failed"].append(row["horizon"])
+    table = [[*key, *(cells["errors"].get(h, "") for h in horizons), cells["lost"] or "none",
+              cells["failed"][0] if cells["failed"] else ""] for key, cells in lines.items()]
+    return ["Relative error of the float32 gradient against the float64 one, by horizon (env steps):", ""] + _table(
+        ["case", "solver", "rtol", "atol", "policy", *horizons, "leading digit lost at", "first float32 solve failure"],
+        table,
+    )
+
+
 def gradient_memory(folder, link):
     data = _read_json(folder, "gradient_memory.json")
     if data is None:
@@ -453,6 +473,7 @@ SECTIONS = {
     "work_precision": work_precision,
     "gradient_error": gradient_error,
     "gradient_variance": gradient_variance,
+    "gradient_precision": gradient_precision,
     "gradient_memory": gradient_memory,
     "throughput": throughput,
     "profile_step": profile_step,

@@ -583,6 +583,47 @@ def precision_loss(config: GradientVarianceConfig, solver: str, kind: str, gain6
     }
 
 
+def precision_at_horizons(
+    config: GradientVarianceConfig, solver: str, kind: str, gain64: np.ndarray, horizons: Sequence[int]
+) -> dict[str, Any]:
+    """float32 against float64 at the given horizons only: the gradient of `f` over each
+    horizon, one reverse pass per horizon and dtype, its relative error, the first of
+    `horizons` at which the float32 gradient has lost its leading correct digit (relative
+    error above 0.1, or a non-finite gradient), and whether every solve of each rollout
+    succeeded (a failed solve holds its state: see `stage_costs`).
+
+    `precision_loss` does every horizon up to the longest with one Jacobian of the running
+    cost; that Jacobian needs as many reverse passes as steps, which through adaptive
+    solves (the end stops' Tsit5) takes minutes per policy. This costs `len(horizons)`.
+    Run it with float64 enabled (as `run_gradient_variance` runs).
+    """
+    horizons = sorted(int(h) for h in horizons)
+    gradients, solves_ok = {}, {}
+    for dtype in ("float64", "float32"):
+        env = build_env(config, solver, dtype)
+        y0 = _initial_state(env, config)
+        theta = nominal_parameters(env, kind, horizons[-1], jnp.asarray(gain64))
+        costs = stage_costs(env, y0, kind, horizons[-1], config.state_weight, config.action_weight)
+        value_and_gradient = jax.jit(jax.value_and_grad(lambda t, h: _objective(costs)(t, h), has_aux=True))
+        results = [value_and_gradient(theta, h) for h in horizons]
+        gradients[dtype] = np.stack([np.asarray(g, dtype=np.float64).ravel() for (_, _), g in results])
+        solves_ok[dtype] = [bool(ok) for (_, ok), _ in results]
+    exact, approximate = gradients["float64"], gradients["float32"]
+    scale = np.linalg.norm(exact, axis=1)
+    error = np.linalg.norm(approximate - exact, axis=1) / np.where(scale > 0, scale, np.nan)
+    error = np.where(np.isfinite(error), error, np.inf)
+    lost = [h for h, e in zip(horizons, error) if e > 0.1]
+    return {
+        "solver": solver,
+        "policy": kind,
+        "horizons": horizons,
+        "relative_error": error.tolist(),
+        "first_digit_lost_horizon": lost[0] if lost else None,
+        "float64_solves_ok": solves_ok["float64"],
+        "float32_solves_ok": solves_ok["float32"],
+    }
+
+
 def _crossing(horizons: Sequence[float], log_difference: Sequence[float]) -> float | None:
     """The horizon where `log_difference` first turns positive (log-linear interpolation),
     the first horizon if it already is, None if it never does."""
