@@ -112,7 +112,6 @@ class HoldsScene:
     def scene(self, scene: AbstractEnv) -> None:
         self._split = SplitScene(scene, self._dtype)
         self._observation = None  # a vector env's last observation, stale under a new scene
-        self._restart_maps = {}  # a vector env's map of restart draws, of the old scene's bounds
         with float64():
             self._initial_bounds = tuple(np.array(bound, dtype=np.float64) for bound in scene.initial_bounds)
         # The key of a stochastic scene's random parts starts again from seed 0 (as at
@@ -279,23 +278,18 @@ def _functions(treedef, static, layout):
         return next_y, steps, observation, outcome_rows(reward, terminated, truncated, info), key
 
     @jax.jit
-    def vector_step(parameters, y, steps, action, key, reset_mask, draws, affine, max_episode_steps, observation):
+    def vector_step(parameters, y, steps, action, key, reset_mask, reset_y, max_episode_steps, observation):
         """All envs step; then those whose episode ended at the previous step restart.
 
-        Gymnasium's next-step autoreset: a restarted env (`reset_mask`) continues from its
-        start and returns its fresh observation, reward 0, terminated and truncated False.
-        The `i`-th restarted env (in index order) starts from `affine[0] + affine[1] *
-        draws[:, i]`: the host fills the first columns of `draws` (shape `(n, num_envs)`)
-        with uniform draws and passes `(low, high - low)`, or with whole start states and
-        passes `(0, 1)`. One compilation serves every time limit and every pattern of
-        restarts; a step where no env restarts is `vector_advance`, which skips all of this.
+        Gymnasium's next-step autoreset: a restarted env (`reset_mask`) continues from
+        `reset_y` and returns its fresh observation, reward 0, terminated and truncated
+        False. One compilation serves every time limit and every pattern of restarts;
+        a step where no env restarts is `vector_advance`, which skips all of this.
         """
         scene = scene_of(parameters)
         key, next_y, steps, observation, reward, terminated, truncated, info = vector_advance_all(
             scene, y, steps, action, key, max_episode_steps, observation
         )
-        order = jnp.maximum(jnp.cumsum(reset_mask) - 1, 0)
-        reset_y = (affine[0] + affine[1] * draws[:, order].T).astype(y.dtype)
         # Restarted envs continue from `reset_y` with their fresh observation.
         next_y = jnp.where(reset_mask[:, None], reset_y, next_y)
         steps = jnp.where(reset_mask, 0, steps)

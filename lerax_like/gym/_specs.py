@@ -47,13 +47,6 @@ class GymSpec:
     def renderer(self) -> str:
         return self.declared.renderer
 
-    def uniform_starts(self, bounds) -> bool:
-        """Whether, without reset options, every coordinate of a start is drawn as
-        `low + (high - low) * np_random.random()` within `bounds` (CartPole, Acrobot), so
-        that `initial_state` is that map of `random((n, num_envs))`."""
-        low, high = bounds
-        return self.declared.reset_options == "bounds" and not self.declared.float32_start and bool(np.all(low != high))
-
     def initial_state(self, bounds, np_random, options: dict[str, Any] | None, num_envs: int) -> np.ndarray:
         """Starts as Gymnasium's env draws them with `np_random` (same calls, same order),
         within `bounds`, the scene's `initial_bounds` in NumPy: float64 of shape `(n, num_envs)`.
@@ -64,7 +57,7 @@ class GymSpec:
         """
         low, high = bounds
         drawn = low != high
-        if options is None and self.uniform_starts(bounds):
+        if options is None and self.declared.reset_options == "bounds" and not self.declared.float32_start and drawn.all():
             # Every coordinate drawn within its bounds (CartPole): the draws below, in short.
             return low[:, None] + (high - low)[:, None] * np_random.random((low.size, num_envs))
         state = np.repeat(low[:, None], num_envs, axis=1)

@@ -75,8 +75,7 @@ class GymnasiumVectorEnv(HoldsScene, VectorEnv):
         self._prev_done = np.zeros(num_envs, dtype=np.bool_)
         self._last_action: np.ndarray | None = None
         self._info_mask = np.ones(num_envs, dtype=np.bool_)
-        self._reset_y: np.ndarray | None = None  # starts for SB3's restarts
-        self._draws: np.ndarray | None = None  # the restarts' draws, see `step`
+        self._reset_y: np.ndarray | None = None
         self._observation: jax.Array | None = None  # the last one returned, on the device
         self._warm_up()
 
@@ -106,7 +105,6 @@ class GymnasiumVectorEnv(HoldsScene, VectorEnv):
         # Compile the step and the observation now, not in the first step of training.
         y = self._starts(np.random.default_rng(0), None, self.num_envs)
         self._reset_y = np.zeros_like(y)
-        self._draws = np.zeros_like(y.T)
         with self._split.precision():
             self._no_reset = jnp.zeros(self.num_envs, dtype=bool)
             no_limit = np.iinfo(jnp.zeros((), dtype=int).dtype).max
@@ -117,20 +115,9 @@ class GymnasiumVectorEnv(HoldsScene, VectorEnv):
             observation, _ = self._split.vector_observe(parameters, y, steps, key)
             arguments = (parameters, y, steps, actions, key)
             jax.block_until_ready(self._split.vector_advance(*arguments, self._time_limit, observation))
-            jax.block_until_ready(self._split.vector_step(
-                *arguments, self._no_reset, self._draws, self._restart_map(None), self._time_limit, observation
-            ))
-
-    def _restart_map(self, options) -> jax.Array:
-        """`(low, high - low)` of the starts, when they are `low + (high - low) * random()`
-        (see `GymSpec.uniform_starts`), else `(0, 1)`: the affine map `vector_step` applies
-        to the draws of restarted envs. Call it in the step's precision."""
-        key = (options is None and self._gym_spec.uniform_starts(self._initial_bounds), self._initial_bounds[0].size)
-        if self._restart_maps.get("key") != key:
-            uniform, n = key
-            low, high = self._initial_bounds if uniform else (np.zeros(n), np.ones(n))
-            self._restart_maps = {"key": key, "map": jnp.asarray(np.stack([low, high - low]), dtype=self._dtype)}
-        return self._restart_maps["map"]
+            jax.block_until_ready(
+                self._split.vector_step(*arguments, self._no_reset, y, self._time_limit, observation)
+            )
 
     def _starts(self, np_random, options, count: int) -> np.ndarray:
         """`count` starts drawn as Gymnasium draws them, shape `(count, n)`, of `dtype`."""
@@ -191,17 +178,12 @@ class GymnasiumVectorEnv(HoldsScene, VectorEnv):
             restarts = np.count_nonzero(self._prev_done)
             if restarts:
                 # Gymnasium's vector CartPole draws only when some env restarts, for those
-                # envs: `uniform(low, high, (n, restarts))`, which is `low + (high - low) *
-                # random((n, restarts))`, the map left to the compiled step. The columns
-                # past `restarts` are stale and unused.
-                restart_map = self._restart_map(self._options)
-                if self._restart_maps["key"][0]:
-                    self._draws[:, :restarts] = self.np_random.random((self._draws.shape[0], restarts))
-                else:
-                    self._draws[:, :restarts] = self._starts(self.np_random, self._options, restarts).T
+                # envs. The rows of the other envs in `_reset_y` are stale and unused.
+                reset_mask = self._prev_done
+                self._reset_y[reset_mask] = self._starts(self.np_random, self._options, restarts)
                 outputs = split.vector_step(
-                    split.parameters, self._y, self._steps, actions, self._jax_key, self._prev_done, self._draws,
-                    restart_map, self._time_limit, self._observation,
+                    split.parameters, self._y, self._steps, actions, self._jax_key, reset_mask, self._reset_y,
+                    self._time_limit, self._observation,
                 )
             else:
                 # No restart: the step without the restart's selects and fresh observations.
