@@ -33,7 +33,7 @@ def actions():
 
 @pytest.mark.parametrize(
     "solver, rtol",
-    [("euler", 1e-6), ("rk4", 1e-6), ("tsit5", 1e-4)],
+    [("euler", 1e-6), ("rk4", 1e-6), pytest.param("tsit5", 1e-4, marks=pytest.mark.slow)],  # tsit5: about 17 s
 )
 def test_gradients_match_central_finite_differences(solver, rtol, actions):
     env = ll.CartPoleContinuous(solver=solver, theta_threshold_radians=jnp.inf, x_threshold=jnp.inf)

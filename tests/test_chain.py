@@ -168,6 +168,7 @@ def _solve_passive(dynamics, y0, rtol, t1=10.0):
     return solution.ys
 
 
+@pytest.mark.slow  # about 12 s on 2 cores
 def test_passive_chains_conserve_energy():
     """Tsit5 keeps the energy of both passive chains, in chaotic motion, for 10 s.
 
@@ -259,6 +260,7 @@ def test_scenes_step_and_tasks(getkey):
     assert jnp.allclose(pendulum.physical_input(jnp.array([0.5, -2.0])), jnp.array([1.5, -3.0]))
 
 
+@pytest.mark.slow  # about 11 s on 2 cores
 def test_three_link_lengths_recovered_within_one_percent(getkey):
     """Experiment 1 (IDS): lengths (3, 3, 3) from the guess (1, 5, 0.5), 1 s of state trajectories."""
     from lerax_like.control import fit_parameters

@@ -256,6 +256,7 @@ def test_cartpole_still_matches_gymnasium(getkey):
 _SCENES = [ll.Pendulum, ll.Acrobot, ll.MountainCar, ll.MountainCarContinuous]
 
 
+@pytest.mark.slow  # about 8 s per scene on 2 cores
 @pytest.mark.parametrize("scene", _SCENES, ids=lambda scene: scene.__name__)
 def test_scene_runs_with_rk4_and_tsit5(scene, getkey):
     # Every scene takes any solver. With the projection applied after the step, RK4 and

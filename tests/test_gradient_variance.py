@@ -50,6 +50,7 @@ def test_alpha_order_weight_minimises_the_variance_and_guards_against_bias():
     assert guarded and alpha == 0.0
 
 
+@pytest.mark.slow  # 8 to 11 s on 2 cores
 def test_objective_gradient_matches_finite_differences():
     config = gv.GradientVarianceConfig.default("CartPole", quick=True)
     env = gv.build_env(config, "rk4")
@@ -67,6 +68,7 @@ def test_objective_gradient_matches_finite_differences():
             assert np.all(gradient[15:] == 0)
 
 
+@pytest.mark.slow  # about 10 s on 2 cores
 def test_lqr_gain_solves_the_discrete_riccati_equation():
     scipy_linalg = pytest.importorskip("scipy.linalg")
     env = gv.build_env(gv.GradientVarianceConfig.default("CartPole"), "rk4")
@@ -100,6 +102,7 @@ def test_lyapunov_exponent_of_the_upright_cart_pole_is_its_unstable_eigenvalue()
     assert abs(np.sum(exponents[-1])) < 0.01
 
 
+@pytest.mark.slow  # 8 to 11 s on 2 cores
 def test_float32_gradient_is_float32_and_loses_digits_with_the_horizon():
     config = gv.GradientVarianceConfig.default("CartPole", quick=True, precision_horizon=60)
     entry = gv.precision_loss(config, "rk4", "open_loop", np.zeros((1, 4)))
@@ -111,6 +114,7 @@ def test_float32_gradient_is_float32_and_loses_digits_with_the_horizon():
     assert error[-1] > 10 * error[0]
 
 
+@pytest.mark.slow  # 8 to 11 s on 2 cores
 def test_first_order_has_lower_variance_and_agrees_with_zeroth_order_on_cart_pole():
     # CartPole through CartPoleContinuous (a force of action * 10 N), at the shortest horizon.
     config = gv.GradientVarianceConfig.default(

@@ -81,7 +81,11 @@ def _rtol(env):
 PRESET_CONTROLLERS = {"implicit_euler": diffrax.ConstantStepSize()}
 
 
-@pytest.mark.parametrize("preset", ll.SOLVER_PRESETS)
+# Through adaptive solves the gradient takes 7 to 18 s per preset on 2 cores.
+@pytest.mark.parametrize(
+    "preset",
+    [pytest.param(p, marks=pytest.mark.slow) if ll.make_integrator(p).adaptive else p for p in ll.SOLVER_PRESETS],
+)
 def test_every_preset_matches_finite_differences(preset):
     name, make_env, actions, differentiable = SCENES[0]
     solver = preset
@@ -94,13 +98,14 @@ def test_every_preset_matches_finite_differences(preset):
 
 
 @pytest.mark.parametrize("scene", SCENES[1:], ids=[s[0] for s in SCENES[1:]])
-@pytest.mark.parametrize("preset", ["euler", "dopri5"])
+@pytest.mark.parametrize("preset", ["euler", pytest.param("dopri5", marks=pytest.mark.slow)])  # dopri5: 5 to 14 s a scene
 def test_every_scene_matches_finite_differences(scene, preset):
     name, make_env, actions, differentiable = scene
     env, report = _check(make_env, actions, differentiable, preset)
     assert report.passed(_rtol(env)), str(report)
 
 
+@pytest.mark.slow  # about 8 s on 2 cores
 @pytest.mark.parametrize("preset", ["tsit5"])
 def test_forward_mode_jacfwd(preset):
     env, report = _check(_continuous, SCENES[0][2], True, preset, adjoint="forward", mode="forward")
@@ -114,6 +119,7 @@ def test_checkpoint_adjoint_refuses_forward_mode():
         jax.jacfwd(lambda y0: ll.rollout(env, EnvState(y=y0, steps=jnp.zeros((), int)), jnp.zeros((2, 1)), key=jr.key(0))[0])(Y0)
 
 
+@pytest.mark.slow  # about 12 s on 2 cores
 def test_backsolve_is_an_approximation():
     # The continuous adjoint approximates the gradient of the continuous system, not of
     # the discrete solution the env computes: with Euler at dt = 0.02 it is off by

@@ -53,7 +53,10 @@ def _integrator(preset):
 
 # Every preset on the cart-pole; the pendulum's projected step with the solver that
 # reproduces Gymnasium and with one that does not know of the projection.
-CASES = [(preset, ll.CartPoleContinuous) for preset in FIXED_STEP_PRESETS + CONSTANT_STEP_OF_ADAPTIVE] + [
+# The embedded and implicit ones (10 to 12 s each on 2 cores) run in CI only.
+CASES = [(preset, ll.CartPoleContinuous) for preset in FIXED_STEP_PRESETS] + [
+    pytest.param(preset, ll.CartPoleContinuous, marks=pytest.mark.slow) for preset in CONSTANT_STEP_OF_ADAPTIVE
+] + [
     ("semi_implicit_euler", ll.Pendulum),
     ("rk4", ll.Pendulum),
 ]

@@ -12,6 +12,9 @@ import pytest
 
 from lerax_like.analysis import SolverSweep, StudyConfig, run_study
 
+# Each scene's study (a fixture per scene and solver) takes 10 to 26 s on 2 cores.
+pytestmark = pytest.mark.slow
+
 
 ORDERS = {"euler": 1, "heun": 2, "rk4": 4, "tsit5": 5}
 
