@@ -23,7 +23,6 @@ import time
 
 import diffrax
 import jax
-import numpy as np
 
 jax.config.update("jax_enable_x64", True)
 
@@ -31,7 +30,7 @@ from benchmarks import results_dir  # noqa: E402
 from lerax_like.analysis.gradient_variance import (  # noqa: E402
     GradientVarianceConfig,
     build_env,
-    lqr_gain,
+    nominal_gain,
     precision_at_horizons,
 )
 from lerax_like.analysis.study import environment_record  # noqa: E402
@@ -74,14 +73,9 @@ def main(argv=None):
     start = time.perf_counter()
     for config, solver, policy, rtol, atol in cases(arguments.quick):
         began = time.perf_counter()
-        if config.feedback_gain == "lqr":
-            key = (config.name, solver)
-            if key not in gains:
-                gains[key] = lqr_gain(build_env(config, solver, "float64"), config.state_weight, config.action_weight)
-            gain = gains[key]
-        else:
-            gain = np.zeros((1, len(config.initial_state)))
-        result = precision_at_horizons(config, solver, policy, gain, horizons)
+        if (config.name, solver) not in gains:  # the LQR gain takes a Riccati iteration
+            gains[config.name, solver] = nominal_gain(config, build_env(config, solver, "float64"))
+        result = precision_at_horizons(config, solver, policy, gains[config.name, solver], horizons)
         for index, horizon in enumerate(result["horizons"]):
             rows.append({
                 "case": config.name, "solver": solver, "rtol": rtol or "", "atol": atol or "", "policy": policy,

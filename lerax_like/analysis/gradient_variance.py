@@ -549,6 +549,21 @@ def truncated_gradients(env: AbstractEnv, y0: Array, kind: str, theta: Array, ho
     return np.asarray(jacobian, dtype=np.float64).reshape(horizon, -1)
 
 
+def _relative_errors(exact: np.ndarray, approximate: np.ndarray) -> np.ndarray:
+    """Row by row, `|approximate - exact| / |exact|`; infinite where that is not finite."""
+    scale = np.linalg.norm(exact, axis=1)
+    error = np.linalg.norm(approximate - exact, axis=1) / np.where(scale > 0, scale, np.nan)
+    return np.where(np.isfinite(error), error, np.inf)
+
+
+def nominal_gain(config: GradientVarianceConfig, env64: AbstractEnv) -> np.ndarray:
+    """The feedback gain the linear policy smooths around: the LQR gain of `env64` (the
+    config's env in float64), or zero (`feedback_gain="zero"`)."""
+    if config.feedback_gain == "lqr":
+        return lqr_gain(env64, config.state_weight, config.action_weight)
+    return np.zeros((_action_size(env64), _initial_state(env64, config).shape[0]))
+
+
 def precision_loss(config: GradientVarianceConfig, solver: str, kind: str, gain64: np.ndarray) -> dict[str, Any]:
     """float32 against float64: the relative error of the float32 gradient at the nominal
     `theta` for every horizon up to `precision_horizon`, and the horizons at which its
@@ -563,10 +578,7 @@ def precision_loss(config: GradientVarianceConfig, solver: str, kind: str, gain6
         y0 = _initial_state(env, config)
         theta = nominal_parameters(env, kind, horizon, jnp.asarray(gain64))
         gradients[dtype] = truncated_gradients(env, y0, kind, theta, horizon, config)
-    exact, approximate = gradients["float64"], gradients["float32"]
-    scale = np.linalg.norm(exact, axis=1)
-    error = np.linalg.norm(approximate - exact, axis=1) / np.where(scale > 0, scale, np.nan)
-    error = np.where(np.isfinite(error), error, np.inf)
+    error = _relative_errors(gradients["float64"], gradients["float32"])
     digits = -np.log10(np.maximum(error, 1e-300))
 
     def first_below(threshold):
@@ -604,14 +616,11 @@ def precision_at_horizons(
         y0 = _initial_state(env, config)
         theta = nominal_parameters(env, kind, horizons[-1], jnp.asarray(gain64))
         costs = stage_costs(env, y0, kind, horizons[-1], config.state_weight, config.action_weight)
-        value_and_gradient = jax.jit(jax.value_and_grad(lambda t, h: _objective(costs)(t, h), has_aux=True))
+        value_and_gradient = jax.jit(jax.value_and_grad(_objective(costs), has_aux=True))
         results = [value_and_gradient(theta, h) for h in horizons]
         gradients[dtype] = np.stack([np.asarray(g, dtype=np.float64).ravel() for (_, _), g in results])
         solves_ok[dtype] = [bool(ok) for (_, ok), _ in results]
-    exact, approximate = gradients["float64"], gradients["float32"]
-    scale = np.linalg.norm(exact, axis=1)
-    error = np.linalg.norm(approximate - exact, axis=1) / np.where(scale > 0, scale, np.nan)
-    error = np.where(np.isfinite(error), error, np.inf)
+    error = _relative_errors(gradients["float64"], gradients["float32"])
     lost = [h for h, e in zip(horizons, error) if e > 0.1]
     return {
         "solver": solver,
@@ -693,11 +702,7 @@ def _run(config: GradientVarianceConfig, progress) -> GradientVarianceResult:
         env = build_env(config, solver)
         env64 = build_env(config, solver, "float64")
         y0 = _initial_state(env, config)
-        gain = (
-            lqr_gain(env64, config.state_weight, config.action_weight)
-            if config.feedback_gain == "lqr"
-            else np.zeros((_action_size(env64), y0.shape[0]))
-        )
+        gain = nominal_gain(config, env64)
         gains[solver] = gain.tolist()
         for kind in config.policies:
             exponents = None
