@@ -20,7 +20,6 @@ from typing import ClassVar
 
 import diffrax
 import equinox as eqx
-import jax.numpy as jnp
 import numpy as np
 
 from ._types import State
@@ -88,16 +87,14 @@ class SemiImplicitEuler(diffrax.AbstractSolver):
                 "the dynamics must declare `velocity_indices` (a ProjectedODETerm built by "
                 "`Integrator.integrate(..., velocity_indices=...)`)."
             )
-        # Which components are velocities, as a mask known when tracing: an elementwise
-        # select, which XLA fuses with the updates (an indexed update is a scatter, a
-        # kernel of its own and a copy of the state, twice per step).
-        is_velocity = np.isin(np.arange(y0.shape[-1]), np.asarray(velocity_indices))
+        velocities = np.asarray(velocity_indices)
+        positions = np.setdiff1d(np.arange(y0.shape[-1]), velocities)
         project = inner.projection
         control = terms.contr(t0, t1)
         rate = terms.vf(t0, y0, args)
-        y_half = project(jnp.where(is_velocity, y0 + rate * control, y0))
+        y_half = project(y0.at[velocities].set(y0[velocities] + rate[velocities] * control))
         rate = terms.vf(t0, y_half, args)
-        y1 = project(jnp.where(is_velocity, y_half, y_half + rate * control))
+        y1 = project(y_half.at[positions].set(y_half[positions] + rate[positions] * control))
         dense_info = dict(y0=y0, y1=y1)
         return y1, None, dense_info, None, diffrax.RESULTS.successful
 

@@ -92,7 +92,7 @@ class Pendulum(AbstractEnv):
         return jnp.clip(jnp.reshape(action, (1,)), -self.max_torque, self.max_torque)
 
     def project(self, y: State) -> State:
-        return jnp.stack([y[0], jnp.clip(y[1], -self.max_speed, self.max_speed)])
+        return y.at[1].set(jnp.clip(y[1], -self.max_speed, self.max_speed))
 
     def observation(self, state: EnvState, *, key: Key | None) -> Array:
         del key
