@@ -340,10 +340,12 @@ def gym_vector(folder, link):
         return []
     if "ours_steps_per_s" in rows[0]:
         return ["Steps per second of the vector env (fastest interleaved block), against a hand-written JAX step "
-                "of the same physics (the XLA floor) and against Gymnasium's own vector env in the same run:", ""] + _table(
-            ["id", "N", "dtype", "ours", "floor", "ours / floor", "Gymnasium's", "ours / Gymnasium's", "load"],
-            [[row["id"], row["num_envs"], row["dtype"], _mega(row["ours_steps_per_s"]), _mega(row["floor_steps_per_s"]),
-              f"{float(row['ours_vs_floor']):.2f}",
+                "of the same physics (the XLA floor) and against Gymnasium's own vector env in the same run; "
+                "`dispatch` is JAX's CPU dispatch in that run (`async`, the default, or `inline`: "
+                "`jax_cpu_enable_async_dispatch` off):", ""] + _table(
+            ["id", "N", "dtype", "dispatch", "ours", "floor", "ours / floor", "Gymnasium's", "ours / Gymnasium's", "load"],
+            [[row["id"], row["num_envs"], row["dtype"], row.get("dispatch", "async"), _mega(row["ours_steps_per_s"]),
+              _mega(row["floor_steps_per_s"]), f"{float(row['ours_vs_floor']):.2f}",
               f"{_mega(row['peer_steps_per_s'])} ({row['peer']})" if row["peer_steps_per_s"] else "",
               f"{float(row['ours_vs_peer']):.2f}" if row["ours_vs_peer"] else "", row["load_average_1min"]]
              for row in rows],

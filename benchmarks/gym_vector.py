@@ -2,7 +2,7 @@
 
     python -m benchmarks gym_vector                 # all five ids, N = 1024 and 16384, float64 and float32
     python -m benchmarks gym_vector --quick         # fewer steps and repeats, N = 1024
-    python -m benchmarks.gym_vector --ids CartPole-v1 --num-envs 1024 [--out DIR]
+    python -m benchmarks.gym_vector --ids CartPole-v1 --num-envs 1024 [--dispatch inline] [--out DIR]
 
 For each registered id, number of envs N and dtype, three vector envs step the same
 pre-drawn random actions (sampled from the action space, seed 0; episodes end and restart
@@ -17,6 +17,12 @@ Each is warmed up first; blocks of `--steps` steps are interleaved over `--repea
 so that load on the shared machine hits all alike, and the fastest block is kept, by wall
 time and by process CPU time (the CPU time is the steadier on a loaded machine). The load
 average is recorded. Writes benchmarks/results/gym_vector.csv (results/quick/ with --quick).
+
+All of it twice, each in a process of its own (`--dispatch`): with JAX's default
+asynchronous dispatch on the CPU, where each call hands its work to a thread of JAX's
+and the caller waits for it, and with `jax_cpu_enable_async_dispatch` off ("inline"),
+where a call runs in the calling thread. The setting is read once, when JAX starts its
+CPU backend, hence the two processes.
 """
 
 import argparse
@@ -24,6 +30,9 @@ import csv
 import datetime
 import os
 import platform
+import subprocess
+import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -39,6 +48,7 @@ from lerax_like.gym import SPECS
 
 
 NAMES = tuple(spec.name for spec in SPECS.values())
+DISPATCH = ("async", "inline")
 
 
 def peer(name: str, num_envs: int):
@@ -56,7 +66,7 @@ def block(env, actions) -> tuple[float, float]:
     return time.perf_counter() - wall, time.process_time() - cpu
 
 
-def measure(name: str, num_envs: int, dtype: str, steps: int, repeats: int, with_peer: bool) -> dict:
+def measure(name: str, num_envs: int, dtype: str, steps: int, repeats: int, with_peer: bool, dispatch: str) -> dict:
     ours = gymnasium.make_vec(f"lerax_like/{name}", num_envs=num_envs, vectorization_mode="vector_entry_point", dtype=dtype)
     ours.reset(seed=0)
     ours.action_space.seed(0)
@@ -83,6 +93,7 @@ def measure(name: str, num_envs: int, dtype: str, steps: int, repeats: int, with
         "id": f"lerax_like/{name}",
         "num_envs": num_envs,
         "dtype": dtype,
+        "dispatch": dispatch,
         "ours_steps_per_s": round(rate["ours"]),
         "floor_steps_per_s": round(rate["floor"]),
         "ours_vs_floor": round(rate["ours"] / rate["floor"], 3),
@@ -108,12 +119,18 @@ def main(argv=None) -> None:
     parser.add_argument("--repeats", type=int, default=None)
     parser.add_argument("--no-peer", action="store_true", help="skip Gymnasium's envs")
     parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--dispatch", choices=DISPATCH, default=None, help="one setting (default: each in turn)")
     parser.add_argument("--out", type=Path, default=None, help="folder (default: benchmarks/results[/quick])")
     parser.add_argument("--output", type=Path, default=None, help="the CSV file (default: OUT/gym_vector.csv)")
     args = parser.parse_args(argv)
     num_envs = args.num_envs or ([1024] if args.quick else [1024, 16384])
     repeats = args.repeats or (3 if args.quick else 25)
     output = args.output or (args.out or results_dir(args.quick)) / "gym_vector.csv"
+    if args.dispatch is None:
+        write(each_dispatch(argv if argv is not None else sys.argv[1:]), output)
+        return
+    if args.dispatch == "inline":
+        jax.config.update("jax_cpu_enable_async_dispatch", False)  # before JAX's first computation
 
     header = {
         "date_utc": datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M"),
@@ -132,7 +149,24 @@ def main(argv=None) -> None:
         for name in args.ids:
             for dtype in args.dtypes:
                 with_peer = not args.no_peer and dtype == "float64"
-                rows.append({**header, **measure(name, n, dtype, steps, repeats, with_peer)})
+                rows.append({**header, **measure(name, n, dtype, steps, repeats, with_peer, args.dispatch)})
+    write(rows, output)
+
+
+def each_dispatch(argv: list[str]) -> list[dict]:
+    """The rows of this benchmark run with each `DISPATCH` setting, each in a process of its own."""
+    rows = []
+    for dispatch in DISPATCH:
+        with tempfile.TemporaryDirectory() as folder:
+            output = Path(folder) / "gym_vector.csv"
+            command = [sys.executable, "-m", "benchmarks.gym_vector", *argv, "--dispatch", dispatch, "--output", str(output)]
+            subprocess.run(command, check=True)
+            with output.open() as file:
+                rows += list(csv.DictReader(file))
+    return rows
+
+
+def write(rows: list[dict], output: Path) -> None:
     output.parent.mkdir(parents=True, exist_ok=True)
     with output.open("w", newline="") as file:
         writer = csv.DictWriter(file, fieldnames=list(rows[0]))

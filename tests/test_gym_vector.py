@@ -5,6 +5,8 @@ observation carried over; the vector env passes the observation it returned last
 failed step must come out the same either way.
 """
 
+import copy
+
 import gymnasium
 import numpy as np
 import pytest
@@ -69,3 +71,45 @@ def test_float32_vector_env_follows_float64(env_id):
 def test_bad_dtype_is_refused_by_name():
     with pytest.raises(ValueError, match="dtype must be one of"):
         _vector("lerax_like/CartPole-v1", 2, dtype="float16")
+
+
+_OPTIONS = {"bounds": {"low": -0.2, "high": 0.3}, "pendulum": {"x_init": 1.0, "y_init": 0.5}}
+
+
+@pytest.mark.parametrize("dtype", ["float64", "float32"])
+@pytest.mark.parametrize("env_id", ALL_IDS)
+def test_restarts_draw_as_gymnasium_draws_a_start(env_id, dtype):
+    # With a time limit of one step, every step restarts every env: the restart draws
+    # the starts as `GymSpec.initial_state` does (checked against Gymnasium's own envs in
+    # test_gym_layer), from the env's generator, with the reset's options, in one call.
+    num_envs = 5
+    spec = SPECS[env_id]
+    options = _OPTIONS[spec.declared.reset_options]
+    vector = _vector(env_id, num_envs, max_episode_steps=1, dtype=dtype)
+    unwrapped = vector.unwrapped
+    vector.reset(seed=4, options=options)
+    vector.action_space.seed(0)
+    vector.step(vector.action_space.sample())  # ends every episode
+    generator = copy.deepcopy(unwrapped.np_random)
+    _, reward, terminated, truncated, _ = vector.step(vector.action_space.sample())  # restarts them all
+    expected = spec.initial_state(unwrapped._initial_bounds, generator, options, num_envs).astype(dtype)
+    assert np.all(reward == 0) and not np.any(terminated | truncated)
+    np.testing.assert_array_equal(unwrapped.state, expected)
+    assert unwrapped.np_random.bit_generator.state == generator.bit_generator.state
+
+
+@pytest.mark.parametrize("dtype", ["float64", "float32"])
+def test_an_invalid_action_changes_nothing(dtype):
+    ours, twin = (_vector("lerax_like/CartPole-v1", 3, dtype=dtype) for _ in range(2))
+    for env in (ours, twin):
+        env.reset(seed=2)
+        env.step(np.array([1, 0, 1]))
+    before = ours.unwrapped.state
+    # Out of range, and in float32 out of int32's range (it must not wrap to 0).
+    for actions in (np.array([0, 1, 2]), np.array([0, 2**32, 1]), np.array([-1, 0, 0])):
+        with pytest.raises(AssertionError, match="invalid"):
+            ours.step(actions)
+        np.testing.assert_array_equal(ours.unwrapped.state, before)
+    for actions in (np.array([0, 0, 1]), np.array([1, 1, 1])):
+        for ours_result, twin_result in zip(ours.step(actions)[:4], twin.step(actions)[:4], strict=True):
+            np.testing.assert_array_equal(ours_result, twin_result)
