@@ -1,5 +1,7 @@
 """Tests run in float64 with strict dtype promotion, as diffrax's own suite does."""
 
+import os
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -45,3 +47,36 @@ def pytest_collection_modifyitems(config, items):
     for item in items:
         if item.path.suffix == ".ipynb":
             item.add_marker(pytest.mark.slow)
+
+
+# CI installs the test extra, which holds every optional dependency the tests import; a
+# test skipped there for a missing one is a broken install, not a test that does not
+# apply, and must fail. A contributor without (say) stable-baselines3 still gets a skip.
+# A skip is for a missing dependency when its reason is pytest.importorskip's ("could not
+# import ...") or carries an install hint ("pip install ..."), as every such skip here does.
+MISSING_DEPENDENCY = ("could not import", "pip install")
+
+
+def _in_ci() -> bool:
+    return os.environ.get("CI", "").strip().lower() not in ("", "0", "false", "no")
+
+
+def _fail_if_missing_dependency(report):
+    if not (report.skipped and _in_ci() and isinstance(report.longrepr, tuple)):
+        return report
+    reason = report.longrepr[2].removeprefix("Skipped: ")
+    if any(marker in reason for marker in MISSING_DEPENDENCY):
+        report.outcome = "failed"
+        report.longrepr = f"CI is set, and the test extra should install every optional dependency: {reason}"
+    return report
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_make_collect_report(collector):
+    # A module-level pytest.importorskip skips the whole module at collection.
+    return _fail_if_missing_dependency((yield))
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_makereport(item, call):
+    return _fail_if_missing_dependency((yield))
