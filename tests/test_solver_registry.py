@@ -164,3 +164,18 @@ def test_solver_specs():
     for spec, match in [("nope", "unknown solver"), ("diffrax:Nope", "no attribute"), ("math:pi", "no diffrax")]:
         with pytest.raises(ValueError, match=match):
             solver_from_spec(spec)
+
+
+def test_the_solver_listing_names_every_column_and_fills_every_count():
+    from lerax_like.cli import format_solver_table
+
+    lines = format_solver_table().splitlines()
+    header = lines[0].split("  ")
+    columns = [cell.strip() for cell in header if cell.strip()]
+    assert columns == ["name", "order", "stages", "f-evals/step", "kind", "error estimate", "default controller",
+                       "description"]
+    rows = {line.split()[0]: line.split() for line in lines[1:]}
+    assert set(rows) == set(SOLVERS)
+    for name, cells in rows.items():
+        assert cells[1] == str(SOLVERS[name].order) and cells[2] == str(SOLVERS[name].stages), cells
+    assert rows["semi_implicit_euler"][2:4] == ["2", "2"]
