@@ -21,7 +21,7 @@ import optimistix
 # exports no public name for it, so this one private import stays.
 from diffrax._root_finder import use_stepsize_tol
 
-from ._checks import check_count
+from ._fields import check_count
 from ._semi_implicit import ProjectedODETerm as ProjectedODETerm, SemiImplicitEuler as SemiImplicitEuler
 from ._types import Array, BoolScalar, Input, IntScalar, ScalarLike, State
 from .gradients import warn_if_silent

@@ -43,7 +43,7 @@ import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
 
-from .._checks import check_count
+from .._fields import check_count
 from .._types import Array, BoolScalar, Float, Scalar
 from ..env import AbstractEnv, EnvState
 from ..integrate import SOLVER_PRESETS
