@@ -120,7 +120,9 @@ def cheapest_at(
     of `schedule` count (default: the first schedule in the rows).
 
     Returns `{"label", "setting", "error", <cost>: value, "schedule", "measure",
-    "members", "tied_with"}`.
+    "members", "tied_with", "unmeasured"}`; `unmeasured` names the solvers that reached
+    the level but whose cost is unknown (an implicit solver's evaluations), so were not
+    compared.
     """
     rows = list(rows)
     if not rows:
@@ -136,6 +138,7 @@ def cheapest_at(
         by_work = all(_known(row, "vector_field_evaluations") for row in candidates)
         cost = "vector_field_evaluations" if by_work else "seconds"
     tied: list[dict[str, Any]] = []
+    unmeasured = [row for row in candidates if not _known(row, cost)]
     if cost == "seconds":
         candidates = [row for row in candidates if not timing_unresolved(row)]
         if not candidates:
@@ -153,6 +156,7 @@ def cheapest_at(
         "label": best["label"], "setting": best["setting"], "error": best["error"], cost: best[cost],
         "schedule": schedule, "measure": cost, "members": best["members"],
         "tied_with": [f"{row['label']} at {row['setting']}" for row in tied],
+        "unmeasured": list(dict.fromkeys(row["label"] for row in unmeasured)),
     }
 
 
@@ -165,4 +169,7 @@ def verdict_line(best: dict[str, Any] | None) -> str:
         if best["tied_with"]:
             text += "; within timing noise of " + ", ".join(best["tied_with"])
         return text
-    return f"{best['label']} at {best['setting']} ({best[best['measure']]:.0f} {best['measure'].replace('_', ' ')})"
+    text = f"{best['label']} at {best['setting']} ({best[best['measure']]:.0f} {best['measure'].replace('_', ' ')})"
+    if best["unmeasured"]:
+        text += "; not compared (evaluations unknown): " + ", ".join(best["unmeasured"])
+    return text
