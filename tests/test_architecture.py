@@ -86,17 +86,6 @@ def _violations(paths) -> list[str]:
     ]
 
 
-# Known on 2026-11-25, and being fixed on its own branch (issue 21): the strict xfail turns
-# into a failure the moment it holds, so that this marker is removed then.
-@pytest.mark.xfail(
-    strict=True,
-    reason="analysis/gradient_variance.py imports report's _finish, _pyplot and _dump_json (house-analysis, issue 21)",
-)
 def test_no_module_imports_another_modules_private_name():
     found = _violations(PACKAGE.rglob("*.py"))
-    assert not found, "private names imported across modules:\n" + "\n".join(found)
-
-
-def test_no_module_outside_analysis_imports_another_modules_private_name():
-    found = _violations(path for path in PACKAGE.rglob("*.py") if "analysis" not in path.relative_to(PACKAGE).parts)
     assert not found, "private names imported across modules:\n" + "\n".join(found)
