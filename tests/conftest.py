@@ -1,6 +1,7 @@
 """Tests run in float64 with strict dtype promotion, as diffrax's own suite does."""
 
 import functools
+import importlib
 import os
 import pathlib
 import re
@@ -16,6 +17,14 @@ from packaging.requirements import Requirement
 
 jax.config.update("jax_enable_x64", True)
 jax.config.update("jax_numpy_dtype_promotion", "strict")
+
+# Scenes that tests define, as a contributor would (`tests/<name>/scene.py`, which calls
+# `lerax_like.register_scene`): imported here, before collection, so that every test
+# parametrised over `lerax_like.SCENES` covers them with no line changed elsewhere.
+TEST_SCENES = tuple(
+    importlib.import_module(f"{path.parent.name}.scene")
+    for path in sorted(pathlib.Path(__file__).parent.glob("*/scene.py"))
+)
 
 
 def tree_allclose(x, y, *, rtol=1e-12, atol=0.0) -> bool:
