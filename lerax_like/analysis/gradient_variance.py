@@ -46,7 +46,7 @@ import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
 
-from .._checks import check_count
+from .._fields import check_count
 from ..integrate import SOLVER_PRESETS
 from ..scenes import SCENES
 from .chaos import (
