@@ -1,6 +1,16 @@
 """Continuous-time control environments for JAX: physics as vector fields, any diffrax solver."""
 
 from . import physics as physics, spaces as spaces
+# How dynamics and scenes declare their fields, checked by name at construction.
+from ._fields import (
+    FINITE as FINITE,
+    NONNEGATIVE as NONNEGATIVE,
+    POSITIVE as POSITIVE,
+    POSITIVE_OR_INF as POSITIVE_OR_INF,
+    Range as Range,
+    option as option,
+    parameter as parameter,
+)
 from .env import (
     AbstractEnv as AbstractEnv,
     EnvState as EnvState,
@@ -19,9 +29,10 @@ from .integrate import (
     has_error_estimate as has_error_estimate,
     make_integrator as make_integrator,
     register_solver as register_solver,
-    solver_from_spec as solver_from_spec,
+    solver_facts as solver_facts,
     unregister_solver as unregister_solver,
 )
+from .cli import solver_from_spec as solver_from_spec
 from .physics import (
     AbstractChainDynamics as AbstractChainDynamics,
     AbstractConservativeDynamics as AbstractConservativeDynamics,
@@ -36,9 +47,10 @@ from .physics import (
     MountainCarDynamics as MountainCarDynamics,
     NLinkPendulumDynamics as NLinkPendulumDynamics,
     PendulumDynamics as PendulumDynamics,
+    PlanarQuadrotorDynamics as PlanarQuadrotorDynamics,
     VanDerPolDynamics as VanDerPolDynamics,
 )
-from .scenes import SCENES as SCENES
+from .scenes import SCENES as SCENES, AbstractUnitActionEnv as AbstractUnitActionEnv, register_scene as register_scene
 
 # Every registered scene at the top level (`lerax_like.CartPole`), from the one registry.
 globals().update(SCENES)

@@ -19,14 +19,14 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import jax.random as jr
-import numpy as np
 
+from ._episode import episode_limit
 from ._fields import POSITIVE, assign_fields, concrete, parameter
 from ._random import uniform
 from ._types import Array, BoolScalar, Float, Input, IntScalar, Key, Scalar, State
 from .integrate import Integrator, make_integrator
 from .physics import AbstractDynamics
-from .spaces import AbstractSpace, eager_spaces
+from .spaces import AbstractSpace, Box, eager_spaces
 
 
 _INTEGRATOR_KEYWORDS = ("solver", "stepsize_controller", "max_steps", "adjoint", "substeps")
@@ -49,21 +49,6 @@ def dynamics(factory):
 def time_step(default: float):
     """The env step `dt` (> 0)."""
     return parameter(default, POSITIVE)
-
-
-def episode_limit(default: int | None):
-    """`max_episode_steps`: the time limit of an episode in env steps (None: none). Data, an
-    integer array leaf, so that one compiled trainer runs any limit and `vmap` batches limits."""
-    return eqx.field(default=default, converter=_episode_limit)
-
-
-def _episode_limit(value) -> IntScalar | None:
-    if value is None or isinstance(value, jax.core.Tracer):
-        return value
-    array = np.asarray(value)
-    if array.shape != () or not np.issubdtype(array.dtype, np.integer) or array < 1:
-        raise ValueError(f"max_episode_steps must be None or an integer >= 1, got {value!r}")
-    return jnp.asarray(array, dtype=int)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -130,8 +115,10 @@ def step_keys(key: Key | None, stochastic: bool) -> StepKeys:
 class AbstractEnv(eqx.Module):
     """A continuous-time control env: physics (`dynamics`), an `integrator` and a task.
 
-    A scene provides `physical_input`, `observation`, `reward`, `terminal`,
-    `initial_bounds`, `worst_reward` and the two spaces, and declares:
+    A scene provides `physical_input`, `reward`, `initial_bounds`, `worst_reward` and
+    `action_space`; `observation` (the state), `observation_space` (unbounded), `terminal`
+    (never) and `project` (identity) have defaults that a scene overrides where its task
+    differs. It declares:
 
     - `stochastic`: whether `transition`, `observation`, `reward` or `terminal` draw random
       numbers (`initial` always does). A deterministic scene's parts get `key=None` (one
@@ -193,8 +180,10 @@ class AbstractEnv(eqx.Module):
     def action_space(self) -> AbstractSpace: ...
 
     @property
-    @abc.abstractmethod
-    def observation_space(self) -> AbstractSpace: ...
+    def observation_space(self) -> AbstractSpace:
+        """Unbounded, of the state's shape, unless a scene declares it (a fully observed scene)."""
+        low, _ = self.initial_bounds
+        return Box(-jnp.inf, jnp.inf, low.shape)
 
     @property
     @abc.abstractmethod
@@ -205,9 +194,10 @@ class AbstractEnv(eqx.Module):
     def physical_input(self, action: Array) -> Input:
         """The physical input `u` (forces, torques) that `action` applies to the dynamics."""
 
-    @abc.abstractmethod
     def observation(self, state: EnvState, *, key: Key | None) -> Float[Array, "..."]:
-        """What the agent sees of `state`."""
+        """What the agent sees of `state`: the state itself, unless a scene declares otherwise."""
+        del key
+        return state.y
 
     @abc.abstractmethod
     def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
@@ -219,9 +209,14 @@ class AbstractEnv(eqx.Module):
         """A lower bound of the task's rewards for actions in the action space: a failed
         step pays it, so that breaking the solver never pays an agent."""
 
-    @abc.abstractmethod
     def terminal(self, state: EnvState, *, key: Key | None) -> BoolScalar:
-        """Whether `state` ends the episode (the task's own end, not a time limit)."""
+        """Whether `state` ends the episode (the task's own end, not a time limit).
+
+        Never, unless a scene declares an end: the episode then ends by its time limit or a
+        failed step only.
+        """
+        del state, key
+        return jnp.asarray(False)
 
     # -- built from the above ----------------------------------------------------------
 
