@@ -17,36 +17,30 @@ mean and standard deviation over the seeds (the same seeds for every candidate).
 Writes jax_rl.csv and jax_rl.json under `--out` (default benchmarks/results, or results/quick).
 """
 
-import argparse
-import csv
-import json
 import os
 import statistics
 import time
-from pathlib import Path
 
 import jax
 import numpy as np
 
-from benchmarks import results_dir
+from benchmarks import benchmark_parser, output_folder
 from benchmarks._workload import REJAX_CARTPOLE_PPO, cartpole_env, compile_seconds, rejax_ppo_training
+from lerax_like.analysis.recording import write_csv, write_record
 
 
 CANDIDATES = {"gymnax": None, "euler": "euler", "rk4": "rk4", "tsit5": "tsit5"}
 
 
 def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--quick", action="store_true")
+    parser = benchmark_parser(__doc__, quick="10k steps, 2 seeds, 1 round")
     parser.add_argument("--seeds", type=int, default=None, help="seeds vmapped in one training call (default 8)")
     parser.add_argument("--rounds", type=int, default=None, help="interleaved timing rounds (default 3)")
-    parser.add_argument("--out", type=Path, default=None, help="folder (default: benchmarks/results[/quick])")
     args = parser.parse_args(argv)
     seeds = args.seeds or (2 if args.quick else 8)
     rounds = args.rounds or (1 if args.quick else 3)
     overrides = {"total_timesteps": 10_000} if args.quick else {}
-    out = args.out or results_dir(args.quick)
-    out.mkdir(parents=True, exist_ok=True)
+    out = output_folder(args)
 
     load_before = os.getloadavg()
     compiled, keys, compile_s, final = {}, None, {}, {}
@@ -87,10 +81,7 @@ def main(argv=None) -> None:
         print(f"{rows[-1]['env']:34s} time {rows[-1]['time_ratio_fastest']:.2f}x gymnax's (fastest), "
               f"{rows[-1]['time_ratio_median']:.2f}x (median); final return {rows[-1]['final_return_mean']} "
               f"+- {rows[-1]['final_return_std']}", flush=True)
-    with open(out / "jax_rl.csv", "w", newline="") as file:
-        writer = csv.DictWriter(file, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
+    write_csv(rows, out / "jax_rl.csv")
     record = {
         "recipe": {**REJAX_CARTPOLE_PPO, **overrides, "seeds": seeds, "rounds": rounds, "precision": "float32"},
         "seconds": {name: [round(value, 3) for value in times] for name, times in seconds.items()},
@@ -98,7 +89,7 @@ def main(argv=None) -> None:
         "load_average_before": [round(value, 2) for value in load_before],
         "load_average_after": [round(value, 2) for value in load_after],
     }
-    (out / "jax_rl.json").write_text(json.dumps(record, indent=1) + "\n")
+    write_record(record, out / "jax_rl.json")
     print(f"wrote {out / 'jax_rl.csv'} and {out / 'jax_rl.json'}")
 
 
