@@ -19,11 +19,13 @@ from .env import (
 )
 from .gradients import ADJOINTS as ADJOINTS, make_adjoint as make_adjoint, with_adjoint as with_adjoint
 from .integrate import (
+    HermiteDenseOutput as HermiteDenseOutput,
     Integrator as Integrator,
     RK4 as RK4,
     SemiImplicitEuler as SemiImplicitEuler,
     SOLVER_PRESETS as SOLVER_PRESETS,
     SOLVERS as SOLVERS,
+    SolverFacts as SolverFacts,
     SolverPreset as SolverPreset,
     describe_solver as describe_solver,
     has_error_estimate as has_error_estimate,
