@@ -22,8 +22,8 @@ def _infos(env, key):
     reset_key, action_key, step_key = jr.split(key, 3)
     state, _, reset_info = env.reset(key=reset_key)
     action = env.action_space.sample(key=action_key)
-    # eqx.filter_eval_shape: an adaptive preset's controller holds a function (`norm`).
-    step_info = eqx.filter_eval_shape(lambda env, state, action: env.step(state, action, key=step_key)[-1], env, state, action)
+    # Plain `jax` tracing, the env an argument, as a jitted trainer passes it.
+    step_info = jax.eval_shape(lambda env, state, action: env.step(state, action, key=step_key)[-1], env, state, action)
     return reset_info, step_info
 
 
@@ -47,7 +47,13 @@ def test_reset_info_has_step_info_structure_every_preset(solver, getkey):
 @pytest.mark.parametrize("solver", list(ll.SOLVER_PRESETS))
 @pytest.mark.parametrize("name", list(ll.SCENES))
 def test_reset_info_has_step_info_structure_every_scene_and_preset(name, solver, getkey):
-    _assert_same_info_structure(ll.SCENES[name](solver=solver), getkey())
+    env = ll.SCENES[name](solver=solver)
+    if solver == "semi_implicit_euler" and env.physics.velocity_indices is None:
+        # Not a pair that steps: the integrator refuses it by name when the step is traced.
+        with pytest.raises(ValueError, match="velocity_indices"):
+            _assert_same_info_structure(env, getkey())
+        return
+    _assert_same_info_structure(env, getkey())
 
 
 def test_reset_info_says_nothing_failed(getkey):
