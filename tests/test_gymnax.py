@@ -159,8 +159,8 @@ def test_rejax_ppo_trains_cartpole_as_on_gymnax():
 
     `eval_freq` is the run's length, so that rejax evaluates once, at the end (128 episodes):
     evaluations draw from the train state's key without changing it, so this changes only
-    the time taken, not what is learnt. 361 s on 2 cores under load average ~20 (two
-    programs compiled, about 110 s each at that load, then trained).
+    the time taken, not what is learnt. 204 s and 361 s in two runs on 2 cores under load
+    average ~20 (two programs compiled, then trained); no idle-machine timing was taken.
     """
     pytest.importorskip("rejax")
     from benchmarks._workload import REJAX_CARTPOLE_PPO, cartpole_env, rejax_ppo_training
