@@ -478,6 +478,24 @@ def sb3_vector(folder, link):
     return lines
 
 
+def jax_rl(folder, link):
+    rows, data = _read_csv(folder, "jax_rl.csv"), _read_json(folder, "jax_rl.json")
+    if rows is None or data is None:
+        return []
+    recipe = data["recipe"]
+    lines = [
+        f"rejax's PPO, its CartPole config ({recipe['total_timesteps']} steps, {recipe['num_envs']} envs, evaluation "
+        f"every {recipe['eval_freq']} steps), {recipe['seeds']} seeds vmapped, {recipe['precision']}, "
+        f"{recipe['rounds']} interleaved rounds; load average {data['load_average_before'][0]} before, "
+        f"{data['load_average_after'][0]} after:", "",
+    ]
+    return lines + _table(
+        ["env", "training time / gymnax's (fastest)", "(median)", "fastest (s)", "compile (s)", "final return"],
+        [[row["env"], row["time_ratio_fastest"], row["time_ratio_median"], row["fastest_s"], row["compile_s"],
+          f"{row['final_return_mean']} +- {row['final_return_std']}"] for row in rows],
+    )
+
+
 def sharded_rollout(folder, link):
     data = _read_json(folder, "sharded_rollout.json")
     if data is None:
@@ -503,6 +521,7 @@ SECTIONS = {
     "stability": stability,
     "domain_randomisation": domain_randomisation,
     "ppo_baseline": ppo_baseline,
+    "jax_rl": jax_rl,
     "sb3_vector": sb3_vector,
     "sharded_rollout": sharded_rollout,
 }

@@ -20,12 +20,13 @@ import jax
 import jax.numpy as jnp
 import jax.random as jr
 
+from ._episode import episode_limit
 from ._fields import POSITIVE, assign_fields, concrete, parameter
 from ._random import uniform
 from ._types import Array, BoolScalar, Float, Input, IntScalar, Key, Scalar, State
 from .integrate import Integrator, make_integrator
 from .physics import AbstractDynamics
-from .spaces import AbstractSpace, Box
+from .spaces import AbstractSpace, Box, eager_spaces
 
 
 _INTEGRATOR_KEYWORDS = ("solver", "stepsize_controller", "max_steps", "adjoint", "substeps")
@@ -48,11 +49,6 @@ def dynamics(factory):
 def time_step(default: float):
     """The env step `dt` (> 0)."""
     return parameter(default, POSITIVE)
-
-
-def episode_limit(default: int | None):
-    """`max_episode_steps`: the time limit of an episode (None: none)."""
-    return eqx.field(default=default, static=True)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -150,7 +146,7 @@ class AbstractEnv(eqx.Module):
     dynamics: eqx.AbstractVar[AbstractDynamics]
     integrator: eqx.AbstractVar[Integrator]
     dt: eqx.AbstractVar[Scalar]
-    max_episode_steps: eqx.AbstractVar[int | None]
+    max_episode_steps: eqx.AbstractVar[IntScalar | None]
 
     def __init__(self, *fields, **keywords):
         """Every field by keyword (or by position, in declaration order); besides, the
@@ -172,6 +168,10 @@ class AbstractEnv(eqx.Module):
         _gather_integrator(fields, keywords)
         _gather_addons(cls, keywords)
         assign_fields(self, keywords)
+
+    def __init_subclass__(cls, **keywords):
+        super().__init_subclass__(**keywords)
+        eager_spaces(cls)  # NumPy bounds inside a jitted trainer that closes over the env
 
     # -- what a scene provides ---------------------------------------------------------
 
@@ -316,9 +316,20 @@ class AbstractEnv(eqx.Module):
         return state.steps >= self.max_episode_steps
 
     def reset(self, *, key: Key) -> tuple[EnvState, Array, dict[str, Array]]:
+        """A fresh episode: state, observation, and an info with `step`'s keys and dtypes (so
+        that `lax.scan`/`lax.select` mix the two): a step that integrated nothing and failed
+        at nothing, every `*_ok` flag True, every count zero, `final_observation` the start's."""
+        state, observation = self._start(key)
+        action = jax.eval_shape(lambda: self.action_space.sample(key=jr.key(0)))
+        # Only the structure of a step's info is read: the step is traced, never run.
+        shapes = jax.eval_shape(lambda s, a: self.advance(s, a, key=jr.key(0))[-1], state, action)
+        info = {name: jnp.full(shape.shape, name.endswith("_ok"), shape.dtype) for name, shape in shapes.items()}
+        return state, observation, {**info, "final_observation": observation}
+
+    def _start(self, key: Key) -> tuple[EnvState, Array]:
         keys = step_keys(key, self.stochastic)
         state = self.initial(key=keys.reset)
-        return state, self.observation(state, key=keys.observation), {}
+        return state, self.observation(state, key=keys.observation)
 
     def advance(
         self, state: EnvState, action: Array, *, key: Key | None, observation_dtype=None, observation_before=None
@@ -396,11 +407,12 @@ class AbstractEnv(eqx.Module):
         next_state, observation, reward, terminated, info = self.advance(state, action, key=key)
         truncated = self.truncate(next_state)
         done = terminated | truncated
-        reset_state, reset_observation, _ = self.reset(key=keys.reset)
+        reset_state, reset_observation = self._start(keys.reset)
         new_state = jax.tree.map(lambda fresh, old: jnp.where(done, fresh, old), reset_state, next_state)
         new_observation = jnp.where(done, reset_observation, observation)
-        info = {**info, "final_observation": observation}
-        return new_state, new_observation, reward, terminated, truncated, info
+        # Strong dtypes (a solver's step count is weak-typed), as `reset`'s info has.
+        info = {name: jnp.asarray(value, dtype=value.dtype) for name, value in info.items()}
+        return new_state, new_observation, reward, terminated, truncated, {**info, "final_observation": observation}
 
 
 def _gather_dynamics(cls, fields, keywords) -> None:
