@@ -13,7 +13,7 @@ pass them. The step semantics (keys, failure guards, autoreset) live in `advance
 
 import abc
 import dataclasses
-from typing import ClassVar, Literal, NamedTuple
+from typing import ClassVar, NamedTuple
 
 import equinox as eqx
 import jax
@@ -53,33 +53,6 @@ def time_step(default: float):
 def episode_limit(default: int | None):
     """`max_episode_steps`: the time limit of an episode (None: none)."""
     return eqx.field(default=default, static=True)
-
-
-@dataclasses.dataclass(frozen=True)
-class GymnasiumSpec:
-    """What registers a scene as `lerax_like/<name>` in Gymnasium, standing in for Gymnasium's `<name>`.
-
-    - `name`: Gymnasium's id (`"CartPole-v1"`); `max_episode_steps`, `reward_threshold`: Gymnasium's.
-    - `renderer`: the Gymnasium env class (`"module:Class"`) whose `render` draws the scene.
-    - `attributes`: Gymnasium's attribute names on its env and the scene's path for each
-      (`("masspole", "dynamics.pole_mass")`; a name listed twice when Gymnasium's one
-      attribute is several parameters, as Acrobot's `LINK_MOI`). The renderer reads them,
-      and the Gymnasium env has them as properties that users read and write.
-    - `reset_options`: how Gymnasium's `reset(options=...)` bounds the start: `"bounds"`
-      (`low`/`high` for every drawn coordinate) or `"pendulum"` (`x_init`, `y_init`).
-    - `float32_start`: Gymnasium's env stores its start in float32 (Acrobot).
-
-    The start itself is drawn from the scene's own `initial_bounds`, with NumPy in
-    Gymnasium's order of calls, so that seeds give Gymnasium's starts.
-    """
-
-    name: str
-    max_episode_steps: int
-    reward_threshold: float | None
-    renderer: str
-    attributes: tuple[tuple[str, str], ...] = ()
-    reset_options: Literal["bounds", "pendulum"] = "bounds"
-    float32_start: bool = False
 
 
 class EnvState(eqx.Module):
@@ -127,8 +100,6 @@ class AbstractEnv(eqx.Module):
       that draws anyway fails at once), and its whole key goes to the start draw.
     - `stiff`: whether its dynamics are stiff, so that the studies' SciPy reference uses
       Radau instead of DOP853 (False unless declared).
-    - `gymnasium`: its `GymnasiumSpec`, or None (the default) when it stands for no
-      Gymnasium env.
     - `aliases`: other names its keywords go by (`("reward", "reward_kind")`; Gymnasium's
       names, such as Pendulum's `g`).
     - `addons`: the generalised-force add-ons it accepts (`JointDamping`, `EndStops`);
@@ -141,7 +112,6 @@ class AbstractEnv(eqx.Module):
 
     stochastic: eqx.AbstractClassVar[bool]
     stiff: ClassVar[bool] = False
-    gymnasium: ClassVar[GymnasiumSpec | None] = None
     addons: ClassVar[tuple[type, ...]] = ()
     aliases: ClassVar[tuple[tuple[str, str], ...]] = ()
 
@@ -311,12 +281,11 @@ class AbstractEnv(eqx.Module):
         return state, self.observation(state, key=keys.observation), {}
 
     def advance(
-        self, state: EnvState, action: Array, *, key: Key | None, observation_dtype=None, observation_before=None
+        self, state: EnvState, action: Array, *, key: Key | None
     ) -> tuple[EnvState, Array, Scalar, BoolScalar, dict[str, Array]]:
         """One step without time limit or reset: the step semantics, defined once.
 
-        Returns the next state, its observation (cast to `observation_dtype` if given),
-        the reward, whether the episode terminated, and the info. `step`, `rollout`, the
+        Returns the next state, its observation, the reward, whether the episode terminated, and the info. `step`, `rollout`, the
         Gymnasium layer and the studies all step through here.
 
         Failures are reported, never silent: `info["solver_ok"]` is False when the solve
@@ -342,10 +311,6 @@ class AbstractEnv(eqx.Module):
         reported in `info["action_ok"]` and fails as above (pre-step state, worst reward,
         terminated), never silently applied as another action. This costs no runtime
         check that could stop a hot loop, so there is no switch to turn it off.
-
-        `observation_before`, if given, is the observation of `state` (cast to
-        `observation_dtype`) that a failed step returns; a caller that has it, as the
-        Gymnasium layer has its previous result, spares the step observing `state` again.
         """
         action = self.action_space.check(action, "action")
         self.check_state(state)
@@ -354,21 +319,15 @@ class AbstractEnv(eqx.Module):
             space = self.action_space
             raise ValueError(f"action {concrete(action).tolist()} is not admissible in {space}: it must be {space.rule}")
         keys = step_keys(key, self.stochastic)
-
-        def observe(s):
-            observation = self.observation(s, key=keys.observation)
-            return observation if observation_dtype is None else observation.astype(observation_dtype)
-
         next_state, info = self.transition(state, action, key=keys.transition)
-        observation = observe(next_state)
+        observation = self.observation(next_state, key=keys.observation)
         reward = self.reward(state, action, next_state, key=keys.reward)
         observation_ok = jnp.all(jnp.isfinite(observation))
         reward_ok = jnp.isfinite(reward)
         ok = info["solver_ok"] & observation_ok & reward_ok
         applied = ok & action_ok
         next_state = EnvState(y=jnp.where(applied, next_state.y, state.y), steps=next_state.steps)
-        previous = observe(state) if observation_before is None else observation_before
-        observation = jnp.where(applied, observation, previous)
+        observation = jnp.where(applied, observation, self.observation(state, key=keys.observation))
         reward = jnp.where(applied, reward, jnp.asarray(self.worst_reward, reward.dtype))
         terminated = self.terminal(next_state, key=keys.terminal) | ~applied
         return next_state, observation, reward, terminated, {**info, "solver_ok": ok, "action_ok": action_ok}
@@ -462,7 +421,6 @@ def rollout(
 __all__ = [
     "AbstractEnv",
     "EnvState",
-    "GymnasiumSpec",
     "StepKeys",
     "dynamics",
     "episode_limit",

@@ -6,16 +6,10 @@ import numpy as np
 
 from .._fields import FINITE, POSITIVE, POSITIVE_OR_INF, concrete, parameter
 from .._types import Array, BoolScalar, Input, Key, Scalar, State
-from ..env import AbstractEnv, EnvState, GymnasiumSpec, dynamics, episode_limit, integrator, time_step
+from ..env import AbstractEnv, EnvState, dynamics, episode_limit, integrator, time_step
 from ..integrate import Integrator
 from ..physics import MountainCarDynamics
 from ..spaces import Box, Discrete
-
-
-def _road_attributes(engine: str) -> tuple[tuple[str, str], ...]:
-    """Gymnasium's attribute names on its mountain cars: the same as the scenes' own."""
-    names = ("min_position", "max_position", "max_speed", "goal_position", "goal_velocity", engine)
-    return (("gravity", "dynamics.gravity"), *((name, name) for name in names))
 
 
 class AbstractMountainCar(AbstractEnv):
@@ -104,13 +98,6 @@ class MountainCar(AbstractMountainCar):
     `stepsize_controller`, `max_episode_steps` (200).
     """
 
-    gymnasium: ClassVar[GymnasiumSpec] = GymnasiumSpec(
-        name="MountainCar-v0",
-        max_episode_steps=200,
-        reward_threshold=-110.0,
-        renderer="gymnasium.envs.classic_control.mountain_car:MountainCarEnv",
-        attributes=_road_attributes("force"),
-    )
 
     dynamics: MountainCarDynamics = dynamics(MountainCarDynamics)
     integrator: Integrator = integrator("semi_implicit_euler")
@@ -171,13 +158,6 @@ class MountainCarContinuous(AbstractMountainCar):
     `stepsize_controller`, `max_episode_steps` (999).
     """
 
-    gymnasium: ClassVar[GymnasiumSpec] = GymnasiumSpec(
-        name="MountainCarContinuous-v0",
-        max_episode_steps=999,
-        reward_threshold=90.0,
-        renderer="gymnasium.envs.classic_control.continuous_mountain_car:Continuous_MountainCarEnv",
-        attributes=_road_attributes("power"),
-    )
 
     dynamics: MountainCarDynamics = dynamics(MountainCarDynamics)
     integrator: Integrator = integrator("semi_implicit_euler")
