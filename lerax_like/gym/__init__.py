@@ -7,6 +7,7 @@ id: `CartPoleEnv` behind `gymnasium.make`, `CartPoleVectorEnv` behind
 `gymnasium.make_vec(..., vectorization_mode="vector_entry_point")`).
 """
 
+from ._batch import Batch as Batch, Outcome as Outcome
 from ._env import GymnasiumEnv as GymnasiumEnv
 from ._registration import register_envs as register_envs
 from ._specs import (
