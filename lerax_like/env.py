@@ -75,6 +75,16 @@ class StepKeys(NamedTuple):
     reset: Key | None
 
 
+class Attempt(NamedTuple):
+    """A step as integrated and observed, before `advance`'s failure rule (`AbstractEnv.attempt`)."""
+
+    next_state: EnvState
+    observation: Array
+    reward: Scalar
+    info: dict[str, Array]
+    """The solver's info; `solver_ok` (the solve, the observation and the reward finite) and `action_ok`."""
+
+
 def step_keys(key: Key | None, stochastic: bool) -> StepKeys:
     """The keys of a step's parts: the one key derivation of the package.
 
@@ -285,8 +295,9 @@ class AbstractEnv(eqx.Module):
     ) -> tuple[EnvState, Array, Scalar, BoolScalar, dict[str, Array]]:
         """One step without time limit or reset: the step semantics, defined once.
 
-        Returns the next state, its observation, the reward, whether the episode terminated, and the info. `step`, `rollout`, the
-        Gymnasium layer and the studies all step through here.
+        Returns the next state, its observation, the reward, whether the episode terminated,
+        and the info. `step`, `rollout`, the Gymnasium layer and the studies all step through
+        here (the layer through its two halves, `attempt` and `conclude`).
 
         Failures are reported, never silent: `info["solver_ok"]` is False when the solve
         failed (non-finite state, step budget exhausted, step size collapsed, Newton
@@ -312,6 +323,17 @@ class AbstractEnv(eqx.Module):
         terminated), never silently applied as another action. This costs no runtime
         check that could stop a hot loop, so there is no switch to turn it off.
         """
+        keys = step_keys(key, self.stochastic)
+        trial = self.attempt(state, action, key=key)
+        return self.conclude(state, trial, self.observation(state, key=keys.observation), key=key)
+
+    def attempt(self, state: EnvState, action: Array, *, key: Key | None) -> "Attempt":
+        """The first half of `advance`: the step as integrated and observed, with its checks
+        (`info["solver_ok"]`, `info["action_ok"]`), before the failure rule (`conclude`).
+
+        A caller that holds the pre-step observation already (a batched front end carries the
+        last one it returned) passes it to `conclude` instead of observing `state` again.
+        """
         action = self.action_space.check(action, "action")
         self.check_state(state)
         action_ok = self.action_space.admissible(action)
@@ -322,15 +344,22 @@ class AbstractEnv(eqx.Module):
         next_state, info = self.transition(state, action, key=keys.transition)
         observation = self.observation(next_state, key=keys.observation)
         reward = self.reward(state, action, next_state, key=keys.reward)
-        observation_ok = jnp.all(jnp.isfinite(observation))
-        reward_ok = jnp.isfinite(reward)
-        ok = info["solver_ok"] & observation_ok & reward_ok
-        applied = ok & action_ok
-        next_state = EnvState(y=jnp.where(applied, next_state.y, state.y), steps=next_state.steps)
-        observation = jnp.where(applied, observation, self.observation(state, key=keys.observation))
-        reward = jnp.where(applied, reward, jnp.asarray(self.worst_reward, reward.dtype))
+        ok = info["solver_ok"] & jnp.all(jnp.isfinite(observation)) & jnp.isfinite(reward)
+        return Attempt(next_state, observation, reward, {**info, "solver_ok": ok, "action_ok": action_ok})
+
+    def conclude(
+        self, state: EnvState, attempt: "Attempt", previous_observation: Array, *, key: Key | None
+    ) -> tuple[EnvState, Array, Scalar, BoolScalar, dict[str, Array]]:
+        """The second half of `advance`, its failure rule: an attempt from `state` that failed
+        (`solver_ok` or `action_ok` False) keeps `state`, returns `previous_observation` (the
+        observation of `state`), pays `worst_reward` and terminates."""
+        keys = step_keys(key, self.stochastic)
+        applied = attempt.info["solver_ok"] & attempt.info["action_ok"]
+        next_state = EnvState(y=jnp.where(applied, attempt.next_state.y, state.y), steps=attempt.next_state.steps)
+        observation = jnp.where(applied, attempt.observation, previous_observation)
+        reward = jnp.where(applied, attempt.reward, jnp.asarray(self.worst_reward, attempt.reward.dtype))
         terminated = self.terminal(next_state, key=keys.terminal) | ~applied
-        return next_state, observation, reward, terminated, {**info, "solver_ok": ok, "action_ok": action_ok}
+        return next_state, observation, reward, terminated, attempt.info
 
     def step(
         self, state: EnvState, action: Array, *, key: Key
@@ -420,6 +449,7 @@ def rollout(
 
 __all__ = [
     "AbstractEnv",
+    "Attempt",
     "EnvState",
     "StepKeys",
     "dynamics",

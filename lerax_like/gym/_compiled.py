@@ -207,18 +207,19 @@ def layer_advance(scene: AbstractEnv, y, steps, action, key, previous):
     """`scene.advance` with the float32 observation Gymnasium returns: `(y, steps,
     observation, reward, terminated, info)`, `previous` being the float32 observation of `y`.
 
-    A finite float64 state can still overflow float32's range in the observation; such a
-    step fails as `advance` fails a non-finite one (pre-step state and observation, the
-    worst reward, terminated, `solver_ok` False), so nothing non-finite reaches an agent.
+    The two halves of `advance`, with the cast between them: a finite float64 state can
+    still overflow float32's range in the observation, and such a step fails by
+    `advance`'s own rule (`conclude`: pre-step state, `previous`, the worst reward,
+    terminated), so nothing non-finite reaches an agent. Passing `previous` (which the
+    layer holds) spares observing `y` again, a second observation per step.
     """
-    state, observation, reward, terminated, info = scene.advance(EnvState(y=y, steps=steps), action, key=key)
-    observation = observation.astype(jnp.float32)
-    fits = jnp.all(jnp.isfinite(observation))
-    applied = fits & info["solver_ok"] & info["action_ok"]
-    observation = jnp.where(applied, observation, previous)
-    reward = jnp.where(fits, reward, jnp.asarray(scene.worst_reward, reward.dtype))
-    info = {**info, "solver_ok": info["solver_ok"] & fits}
-    return jnp.where(fits, state.y, y), state.steps, observation, reward, terminated | ~fits, info
+    state = EnvState(y=y, steps=steps)
+    trial = scene.attempt(state, action, key=key)
+    observation = trial.observation.astype(jnp.float32)
+    info = {**trial.info, "solver_ok": trial.info["solver_ok"] & jnp.all(jnp.isfinite(observation))}
+    trial = trial._replace(observation=observation, info=info)
+    state, observation, reward, terminated, info = scene.conclude(state, trial, previous, key=key)
+    return state.y, state.steps, observation, reward, terminated, info
 
 
 @_cache
