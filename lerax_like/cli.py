@@ -8,6 +8,7 @@
 """
 
 import argparse
+import os
 import sys
 import time
 
@@ -21,12 +22,48 @@ SOLVER_HELP = (
 )
 
 
+def solver_from_spec(spec: str) -> "str | diffrax.AbstractSolver":  # noqa: F821 (imported lazily)
+    """The solver a command line names: a preset name, or `module:attribute`.
+
+    `module:attribute` imports `module` (from `sys.path`: `PYTHONPATH`, and the current
+    directory, which the `lerax-like` command puts there) and takes `attribute`: a diffrax
+    solver instance, or a solver class built with no arguments (`diffrax:Bosh3`,
+    `my_methods:RALSTON3`). Returns the preset name (lower case) or the solver instance.
+    """
+    import importlib
+
+    from .integrate import SOLVERS, solver_instance
+
+    if not isinstance(spec, str) or not spec:
+        raise ValueError(f"solver must be a preset name or 'module:attribute', got {spec!r}")
+    if ":" not in spec:
+        return SOLVERS.find(spec).name
+    module_name, _, attribute = spec.partition(":")
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as error:
+        raise ValueError(f"solver {spec!r}: cannot import module {module_name!r} ({error})") from None
+    value = module
+    for part in attribute.split("."):
+        try:
+            value = getattr(value, part)
+        except AttributeError:
+            raise ValueError(f"solver {spec!r}: module {module_name!r} has no attribute {attribute!r}") from None
+    try:
+        return solver_instance(value)
+    except TypeError as error:
+        raise ValueError(f"solver {spec!r}: {error}") from None
+
+
 def _solvers_from(arguments, command: str):
     """The solvers named by `--solver`, or None; a bad name is a usage error (exit 2)."""
     if not arguments.solver:
         return None
-    from .integrate import solver_from_spec
-
+    # `python -m lerax_like` puts the working directory on sys.path, but the `lerax-like`
+    # console script puts its own folder there instead: without this, `--solver
+    # mymethods:RALSTON3` run beside mymethods.py would not find it.
+    if os.getcwd() not in sys.path and "" not in sys.path:
+        sys.path.insert(0, os.getcwd())
     try:
         return [solver_from_spec(spec) for spec in arguments.solver]
     except ValueError as error:
@@ -36,7 +73,8 @@ def _solvers_from(arguments, command: str):
 
 def _study(arguments) -> int:
     from .analysis import StudyConfig, run_study, sweeps_for, write_study
-    from .analysis.report import cheapest_at, format_orders, format_table, matplotlib_available
+    from .analysis.report import VERDICT_TARGETS, cheapest_at, format_orders, format_table, matplotlib_available
+    from .analysis.verdict import verdict_line
     from .analysis.scenes import SCENES
 
     overrides = {}
@@ -57,9 +95,8 @@ def _study(arguments) -> int:
           f"{config.fit_ceiling:g}):")
     print(format_orders(result.convergence_orders()))
     print()
-    for target in (1e-3, 1e-6, 1e-9):
-        best = cheapest_at(result.rows, target)
-        verdict = "none reached it" if best is None else f"{best['label']} at {best['setting']} ({best['seconds']:.2e} s)"
+    for target in VERDICT_TARGETS:
+        verdict = verdict_line(cheapest_at(result.rows, target))
         print(f"cheapest at error <= {target:g} ({config.schedules[0]} actions): {verdict}")
     return _finish(arguments, plot, elapsed, paths)
 
@@ -194,7 +231,7 @@ def format_solver_table() -> str:
     """The solver presets with their orders, as `lerax-like solvers` prints them."""
     from .integrate import SOLVERS
 
-    header = ("name", "order", "stages", "f-evals/step", "kind", "error estimate", "default controller", "")
+    header = ("name", "order", "stages", "f-evals/step", "kind", "error estimate", "default controller", "description")
     lines = [header]
     for preset in SOLVERS.values():
         lines.append((
