@@ -59,28 +59,6 @@ def gym_stepper(env, actions):
     return block
 
 
-def compiled_stepper(env, actions):
-    """The layer's jitted step alone, as `GymnasiumEnv.step` calls it, without its bookkeeping."""
-    unwrapped = env.unwrapped
-    split = unwrapped.split
-    env.reset(seed=0)
-    y = np.array(unwrapped.state)
-    key = split.key(0)
-
-    def block():
-        nonlocal key
-        times = []
-        with float64():
-            for action in actions:
-                start = time.perf_counter()
-                *outputs, key = split.compiled.step(split.parameters, pack_step(y, 0, action), key)
-                _fetch(outputs)
-                times.append(time.perf_counter() - start)
-        return statistics.median(times)
-
-    return block
-
-
 def _fetch(outputs):
     # What the layer does with its results: `np.asarray` per array (`jax.device_get`
     # costs far more for arrays this small).
@@ -98,28 +76,30 @@ def _bare(shapes):
     return bare
 
 
-def floor_stepper(env, actions):
-    """The JAX floor: a bare jitted call with the layer's inputs and outputs, computing nothing."""
-    unwrapped = env.unwrapped
-    split = unwrapped.split
+def call_stepper(env, actions, *, floor: bool):
+    """The layer's jitted step alone, as `GymnasiumEnv.step` calls it, without its
+    bookkeeping; with `floor`, the JAX floor: a bare jitted call with the same inputs and
+    outputs that computes nothing."""
+    split = env.unwrapped.split
     env.reset(seed=0)
-    y = np.array(unwrapped.state)
+    y = np.array(env.unwrapped.state)
     key = split.key(0)
-
-    with float64():
-        shapes = jax.eval_shape(split.compiled.step, split.parameters, pack_step(y, 0, 0), key)
-        bare = _bare(shapes)
-        jax.block_until_ready(bare(split.parameters, pack_step(y, 0, 0), key))
-
-    packed = [pack_step(y, 0, action) for action in actions]  # the floor does not pack
+    call = split.compiled.step
+    packed = [pack_step(y, 0, action) for action in actions]
+    if floor:
+        with float64():
+            call = _bare(jax.eval_shape(split.compiled.step, split.parameters, packed[0], key))
+            jax.block_until_ready(call(split.parameters, packed[0], key))
 
     def block():
         nonlocal key
         times = []
         with float64():
-            for inputs in packed:
+            for action, inputs in zip(actions, packed, strict=True):
                 start = time.perf_counter()
-                *outputs, key = bare(split.parameters, inputs, key)
+                if not floor:  # the layer packs its inputs; the floor does not
+                    inputs = pack_step(y, 0, action)
+                *outputs, key = call(split.parameters, inputs, key)
                 _fetch(outputs)
                 times.append(time.perf_counter() - start)
         return statistics.median(times)
@@ -193,8 +173,8 @@ def main(argv=None):
     single = {
         "lerax_like gym.make step": gym_stepper(ours, actions),
         "lerax_like unwrapped step": gym_stepper(ours.unwrapped, actions),
-        "lerax_like compiled step + fetch": compiled_stepper(ours, actions),
-        "JAX floor: bare jitted call + fetch": floor_stepper(ours, actions),
+        "lerax_like compiled step + fetch": call_stepper(ours, actions, floor=False),
+        "JAX floor: bare jitted call + fetch": call_stepper(ours, actions, floor=True),
         "Gymnasium CartPole gym.make step": gym_stepper(theirs, actions),
         "Gymnasium CartPole unwrapped step": gym_stepper(theirs.unwrapped, actions),
     }
