@@ -1,8 +1,11 @@
 """Throughput of the vector env and the SB3 VecEnv, two versions of the package interleaved in one run.
 
-    python -m benchmarks.gym_before_after --old /tmp/old [--new .] [--rounds 6] [--out DIR]
+    python -m benchmarks gym_before_after [--quick] [-- --old-commit c47eebd --rounds 4]
+    python -m benchmarks.gym_before_after [--old DIR | --old-commit REV] [--new DIR] [--rounds 4] [--out DIR]
 
-`--old` and `--new` are checkouts (e.g. `git worktree add /tmp/old c47eebd`). Each round
+`--old` and `--new` are checkouts (`--new` defaults to this one; without `--old`, a
+temporary `git worktree` of `--old-commit`, c47eebd by default: the commit before the one
+batched stepper, removed afterwards). Each round
 starts one process per checkout, in ABBA order over the rounds, so that a drift of the
 shared machine's load hits both alike; a process imports its checkout's `lerax_like`
 (through the public API only: `gymnasium.make_vec(..., vectorization_mode=
@@ -14,16 +17,16 @@ machine); the ratio is new over old. Writes gym_before_after.csv under `--out`
 (default benchmarks/results).
 """
 
-import argparse
 import datetime
 import json
 import os
 import platform
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
-from benchmarks import results_dir
+from benchmarks import benchmark_parser, output_folder
 from benchmarks.gym_vector import write
 
 
@@ -81,13 +84,28 @@ def run_worker(checkout: Path, blocks: int) -> dict:
 
 
 def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--old", type=Path, required=True)
-    parser.add_argument("--new", type=Path, default=Path("."))
-    parser.add_argument("--rounds", type=int, default=6)
-    parser.add_argument("--blocks", type=int, default=5, help="timed blocks per configuration and process")
-    parser.add_argument("--out", type=Path, default=None)
+    parser = benchmark_parser(__doc__, quick="2 rounds of 2 blocks")
+    parser.add_argument("--old", type=Path, default=None, help="the old checkout (default: a worktree of --old-commit)")
+    parser.add_argument("--old-commit", default="c47eebd")
+    parser.add_argument("--new", type=Path, default=Path(__file__).resolve().parent.parent)
+    parser.add_argument("--rounds", type=int, default=None, help="4 (2 with --quick)")
+    parser.add_argument("--blocks", type=int, default=None, help="timed blocks per configuration and process: 5 (2)")
     args = parser.parse_args(argv)
+    args.rounds = args.rounds or (2 if args.quick else 4)
+    args.blocks = args.blocks or (2 if args.quick else 5)
+    if args.old is not None:
+        compare(args)
+        return
+    with tempfile.TemporaryDirectory() as folder:
+        args.old = Path(folder) / "old"
+        subprocess.run(["git", "worktree", "add", "--detach", str(args.old), args.old_commit], cwd=args.new, check=True)
+        try:
+            compare(args)
+        finally:
+            subprocess.run(["git", "worktree", "remove", "--force", str(args.old)], cwd=args.new, check=True)
+
+
+def compare(args) -> None:
     checkouts = {"old": args.old.resolve(), "new": args.new.resolve()}
     commits = {
         name: subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=path, capture_output=True, text=True).stdout.strip()
@@ -127,7 +145,7 @@ def main(argv=None) -> None:
         }
         rows.append(row)
         print(", ".join(f"{key}={value}" for key, value in row.items()), flush=True)
-    write(rows, (args.out or results_dir(False)) / "gym_before_after.csv")
+    write(rows, output_folder(args) / "gym_before_after.csv")
 
 if __name__ == "__main__":
     main()
