@@ -13,7 +13,7 @@ pass them. The step semantics (keys, failure guards, autoreset) live in `advance
 
 import abc
 import dataclasses
-from typing import ClassVar, Literal, NamedTuple
+from typing import ClassVar, NamedTuple
 
 import equinox as eqx
 import jax
@@ -51,31 +51,6 @@ def time_step(default: float):
     return parameter(default, POSITIVE)
 
 
-@dataclasses.dataclass(frozen=True)
-class GymnasiumSpec:
-    """What registers a scene as `lerax_like/<name>` in Gymnasium, standing in for Gymnasium's `<name>`.
-
-    - `name`: Gymnasium's id (`"CartPole-v1"`); `max_episode_steps`, `reward_threshold`: Gymnasium's.
-    - `renderer`: the Gymnasium env class (`"module:Class"`) whose `render` draws the scene.
-    - `attributes`: Gymnasium's attribute names on its env and the scene's path for each
-      (`("masspole", "dynamics.pole_mass")`; a name listed twice when Gymnasium's one
-      attribute is several parameters, as Acrobot's `LINK_MOI`). The renderer reads them,
-      and the Gymnasium env has them as properties that users read and write.
-    - `reset_options`: how Gymnasium's `reset(options=...)` bounds the start: `"bounds"`
-      (`low`/`high` for every drawn coordinate) or `"pendulum"` (`x_init`, `y_init`).
-    - `float32_start`: Gymnasium's env stores its start in float32 (Acrobot).
-
-    The start itself is drawn from the scene's own `initial_bounds`, with NumPy in
-    Gymnasium's order of calls, so that seeds give Gymnasium's starts.
-    """
-
-    name: str
-    max_episode_steps: int
-    reward_threshold: float | None
-    renderer: str
-    attributes: tuple[tuple[str, str], ...] = ()
-    reset_options: Literal["bounds", "pendulum"] = "bounds"
-    float32_start: bool = False
 
 
 class EnvState(eqx.Module):
@@ -96,6 +71,16 @@ class StepKeys(NamedTuple):
     reward: Key | None
     terminal: Key | None
     reset: Key | None
+
+
+class Attempt(NamedTuple):
+    """A step as integrated and observed, before `advance`'s failure rule (`AbstractEnv.attempt`)."""
+
+    next_state: EnvState
+    observation: Array
+    reward: Scalar
+    info: dict[str, Array]
+    """The solver's info; `solver_ok` (the solve, the observation and the reward finite) and `action_ok`."""
 
 
 def step_keys(key: Key | None, stochastic: bool) -> StepKeys:
@@ -125,8 +110,6 @@ class AbstractEnv(eqx.Module):
       that draws anyway fails at once), and its whole key goes to the start draw.
     - `stiff`: whether its dynamics are stiff, so that the studies' SciPy reference uses
       Radau instead of DOP853 (False unless declared).
-    - `gymnasium`: its `GymnasiumSpec`, or None (the default) when it stands for no
-      Gymnasium env.
     - `aliases`: other names its keywords go by (`("reward", "reward_kind")`; Gymnasium's
       names, such as Pendulum's `g`).
     - `addons`: the generalised-force add-ons it accepts (`JointDamping`, `EndStops`);
@@ -139,7 +122,6 @@ class AbstractEnv(eqx.Module):
 
     stochastic: eqx.AbstractClassVar[bool]
     stiff: ClassVar[bool] = False
-    gymnasium: ClassVar[GymnasiumSpec | None] = None
     addons: ClassVar[tuple[type, ...]] = ()
     aliases: ClassVar[tuple[tuple[str, str], ...]] = ()
 
@@ -332,13 +314,13 @@ class AbstractEnv(eqx.Module):
         return state, self.observation(state, key=keys.observation)
 
     def advance(
-        self, state: EnvState, action: Array, *, key: Key | None, observation_dtype=None, observation_before=None
+        self, state: EnvState, action: Array, *, key: Key | None
     ) -> tuple[EnvState, Array, Scalar, BoolScalar, dict[str, Array]]:
         """One step without time limit or reset: the step semantics, defined once.
 
-        Returns the next state, its observation (cast to `observation_dtype` if given),
-        the reward, whether the episode terminated, and the info. `step`, `rollout`, the
-        Gymnasium layer and the studies all step through here.
+        Returns the next state, its observation, the reward, whether the episode terminated,
+        and the info. `step`, `rollout`, the Gymnasium layer and the studies all step through
+        here (the layer through its two halves, `attempt` and `conclude`).
 
         Failures are reported, never silent: `info["solver_ok"]` is False when the solve
         failed (non-finite state, step budget exhausted, step size collapsed, Newton
@@ -363,10 +345,17 @@ class AbstractEnv(eqx.Module):
         reported in `info["action_ok"]` and fails as above (pre-step state, worst reward,
         terminated), never silently applied as another action. This costs no runtime
         check that could stop a hot loop, so there is no switch to turn it off.
+        """
+        keys = step_keys(key, self.stochastic)
+        trial = self.attempt(state, action, key=key)
+        return self.conclude(state, trial, self.observation(state, key=keys.observation), key=key)
 
-        `observation_before`, if given, is the observation of `state` (cast to
-        `observation_dtype`) that a failed step returns; a caller that has it, as the
-        Gymnasium layer has its previous result, spares the step observing `state` again.
+    def attempt(self, state: EnvState, action: Array, *, key: Key | None) -> "Attempt":
+        """The first half of `advance`: the step as integrated and observed, with its checks
+        (`info["solver_ok"]`, `info["action_ok"]`), before the failure rule (`conclude`).
+
+        A caller that holds the pre-step observation already (a batched front end carries the
+        last one it returned) passes it to `conclude` instead of observing `state` again.
         """
         action = self.action_space.check(action, "action")
         self.check_state(state)
@@ -375,24 +364,25 @@ class AbstractEnv(eqx.Module):
             space = self.action_space
             raise ValueError(f"action {concrete(action).tolist()} is not admissible in {space}: it must be {space.rule}")
         keys = step_keys(key, self.stochastic)
-
-        def observe(s):
-            observation = self.observation(s, key=keys.observation)
-            return observation if observation_dtype is None else observation.astype(observation_dtype)
-
         next_state, info = self.transition(state, action, key=keys.transition)
-        observation = observe(next_state)
+        observation = self.observation(next_state, key=keys.observation)
         reward = self.reward(state, action, next_state, key=keys.reward)
-        observation_ok = jnp.all(jnp.isfinite(observation))
-        reward_ok = jnp.isfinite(reward)
-        ok = info["solver_ok"] & observation_ok & reward_ok
-        applied = ok & action_ok
-        next_state = EnvState(y=jnp.where(applied, next_state.y, state.y), steps=next_state.steps)
-        previous = observe(state) if observation_before is None else observation_before
-        observation = jnp.where(applied, observation, previous)
-        reward = jnp.where(applied, reward, jnp.asarray(self.worst_reward, reward.dtype))
+        ok = info["solver_ok"] & jnp.all(jnp.isfinite(observation)) & jnp.isfinite(reward)
+        return Attempt(next_state, observation, reward, {**info, "solver_ok": ok, "action_ok": action_ok})
+
+    def conclude(
+        self, state: EnvState, attempt: "Attempt", previous_observation: Array, *, key: Key | None
+    ) -> tuple[EnvState, Array, Scalar, BoolScalar, dict[str, Array]]:
+        """The second half of `advance`, its failure rule: an attempt from `state` that failed
+        (`solver_ok` or `action_ok` False) keeps `state`, returns `previous_observation` (the
+        observation of `state`), pays `worst_reward` and terminates."""
+        keys = step_keys(key, self.stochastic)
+        applied = attempt.info["solver_ok"] & attempt.info["action_ok"]
+        next_state = EnvState(y=jnp.where(applied, attempt.next_state.y, state.y), steps=attempt.next_state.steps)
+        observation = jnp.where(applied, attempt.observation, previous_observation)
+        reward = jnp.where(applied, attempt.reward, jnp.asarray(self.worst_reward, attempt.reward.dtype))
         terminated = self.terminal(next_state, key=keys.terminal) | ~applied
-        return next_state, observation, reward, terminated, {**info, "solver_ok": ok, "action_ok": action_ok}
+        return next_state, observation, reward, terminated, attempt.info
 
     def step(
         self, state: EnvState, action: Array, *, key: Key
@@ -483,8 +473,8 @@ def rollout(
 
 __all__ = [
     "AbstractEnv",
+    "Attempt",
     "EnvState",
-    "GymnasiumSpec",
     "StepKeys",
     "dynamics",
     "episode_limit",
