@@ -96,6 +96,10 @@ BENCHMARKS = {
         Benchmark("ppo_baseline", "PPO (Stable-Baselines3) on the policy-learning task", (_SB3,)),
         Benchmark("sb3_vector", "PPO on lerax_like.sb3.make_vec_env against SB3's make_vec_env; the VecEnvs' speed", (_SB3,)),
         Benchmark(
+            "gym_before_after", "the vector env's and the SB3 VecEnv's speed against an older commit's, interleaved",
+            (_SB3,),
+        ),
+        Benchmark(
             "sharded_rollout", "rollouts sharded over devices equal the unsharded run",
             environment=(("XLA_FLAGS", "--xla_force_host_platform_device_count=4"),),
         ),

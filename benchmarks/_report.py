@@ -292,8 +292,7 @@ def throughput(folder, link):
 
 
 def profile_step(folder, link):
-    rows = _read_csv(folder, "profile_step.csv")
-    if rows is None:
+    if (rows := _read_csv(folder, "profile_step.csv")) is None:
         return []
     return ["Each row adds one part of `env.step` to the previous workload; time relative to gymnax's step "
             "(minimum of interleaved repeats):", ""] + _table(
@@ -489,6 +488,24 @@ def sharded_rollout(folder, link):
     ]
 
 
+def gym_before_after(folder, link):
+    rows = _read_csv(folder, "gym_before_after.csv")
+    if rows is None:
+        return []
+    first = rows[0]
+    lines = [
+        f"Commit {first['new_commit']} against {first['old_commit']}, {first['rounds']} interleaved rounds, fastest of "
+        f"{first['blocks']} blocks; load average {first['load_average_before']} before, "
+        f"{first['load_average_after']} after:", "",
+    ]
+    lines += _table(
+        ["front end", "id", "envs", "old steps/s", "new steps/s", "new / old (wall)", "new / old (CPU time)"],
+        [[row["front_end"], row["id"], row["num_envs"], f"{int(row['old_steps_per_s']):,}",
+          f"{int(row['new_steps_per_s']):,}", row["new_vs_old"], row["new_vs_old_cpu_time"]] for row in rows],
+    )
+    return lines
+
+
 SECTIONS = {
     "work_precision": work_precision,
     "gradient_error": gradient_error,
@@ -505,6 +522,7 @@ SECTIONS = {
     "domain_randomisation": domain_randomisation,
     "ppo_baseline": ppo_baseline,
     "sb3_vector": sb3_vector,
+    "gym_before_after": gym_before_after,
     "sharded_rollout": sharded_rollout,
 }
 assert set(SECTIONS) == set(BENCHMARKS), "every benchmark needs a section"

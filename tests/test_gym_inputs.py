@@ -61,7 +61,9 @@ def test_a_non_finite_vector_action_is_refused_naming_the_env(env_id, value):
     assert np.all(info["action_ok"]) and np.all(info["_action_ok"])
 
 
-@pytest.mark.skipif(importlib.util.find_spec("stable_baselines3") is None, reason="needs stable-baselines3")
+@pytest.mark.skipif(
+    importlib.util.find_spec("stable_baselines3") is None, reason="needs Stable-Baselines3: pip install stable-baselines3"
+)
 @pytest.mark.parametrize("env_id", CONTINUOUS_IDS)
 def test_a_non_finite_sb3_action_is_refused_naming_the_env(env_id):
     venv = lerax_like.sb3.make_vec_env(env_id, n_envs=2, seed=0)
