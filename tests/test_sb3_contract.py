@@ -306,3 +306,26 @@ def test_rgb_array_list_restarts_an_envs_frames_with_its_episode():
             lengths.append([len(each) for each in ours.render()])
             ref_lengths.append([len(each) for each in reference.render()])
         assert lengths == ref_lengths, mode
+
+
+def test_per_env_parameters_in_float32_and_through_pickle():
+    import pickle
+
+    env_id = "lerax_like/CartPole-v1"
+    double, _ = pair(env_id)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        single = make_vec_env(env_id, NUM_ENVS, seed=7, dtype="float32")
+    for venv in (double, single):
+        venv.set_attr("masspole", 0.5, indices=[1])
+        venv.reset()
+    # SB3's VecMonitor does not pickle (a mappingproxy); the vector env inside it does.
+    copy = pickle.loads(pickle.dumps(double.venv))
+    assert copy.get_attr("masspole") == [0.1, 0.5, 0.1]
+    for action in actions(double, 5, seed=4):
+        observation, _, _, _ = double.step(action)
+        copied, _, _, _ = copy.step(action)
+        narrow, _, _, _ = single.step(action)
+        np.testing.assert_array_equal(copied, observation)  # the copy continues exactly
+        # float32 steps follow float64 ones to float32 rounding, the changed env included.
+        np.testing.assert_allclose(narrow, observation, rtol=1e-5, atol=1e-6)

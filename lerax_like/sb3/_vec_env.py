@@ -88,8 +88,9 @@ class EnvView:
 
     def __getattr__(self, name: str) -> Any:
         # Only for names this class and its instance lack: the vector env's shared ones.
-        if name.startswith("__"):
-            raise AttributeError(name)
+        # Private names are not forwarded (a view being unpickled has no `_venv` yet).
+        if name.startswith("_"):
+            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
         return getattr(self._venv.vector, name)
 
     def __setattr__(self, name: str, value: Any) -> None:
@@ -105,10 +106,12 @@ def _view_class(env_id: str) -> type[EnvView]:
     vector_class = ENV_CLASSES[env_id][1]
     names = dict.fromkeys(name for name, _ in SPECS[env_id].declared.attributes)
     attributes = {name: vars(vector_class)[name] for name in names}
-    return type(f"{vector_class.__name__}View", (EnvView,), attributes)
+    return type(f"{vector_class.__name__}View", (EnvView,), {"__module__": __name__, **attributes})
 
 
 _VIEW_CLASSES = {env_id: _view_class(env_id) for env_id in SPECS}
+# Module attributes, so that pickle finds them by name (a VecEnv with its views pickles).
+globals().update({cls.__name__: cls for cls in _VIEW_CLASSES.values()})
 
 
 class CompiledVecEnv(VecEnv):
