@@ -63,8 +63,9 @@ def build_scene(scene_cls: type[AbstractEnv], kwargs: dict[str, Any]) -> Abstrac
 
 class Compiled(NamedTuple):
     """The jitted functions of one scene configuration. Each takes the packed parameters
-    first (the batched ones: one vector shared by all envs, or one row per env) and the carried key (None for a deterministic scene) among its arguments, and
-    returns the key to carry next.
+    first (the batched ones: one vector shared by all envs, or one row per env) and the
+    carried key (None for a deterministic scene) among its arguments, and returns the key
+    to carry next.
 
     - `step(parameters, inputs, key) -> (outcome, key)`: one env from `inputs`, the
       action, step count and state packed by `pack_step`; `outcome` packs the next state,
