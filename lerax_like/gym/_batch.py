@@ -44,6 +44,10 @@ class Batch:
     it again). `scene` may be replaced (new parameters: the same compiled program when
     only array leaves change); the states stay. The time limit is the scene's
     `max_episode_steps`.
+
+    `set_scenes` gives some envs scenes of their own (other parameters, same
+    configuration): the compiled calls then take one parameter row per env; assigning
+    `scene` makes every env share it again.
     """
 
     def __init__(self, scene: AbstractEnv, num_envs: int, dtype: str = "float64"):
@@ -57,6 +61,8 @@ class Batch:
         self._y: jax.Array | None = None
         self._steps: jax.Array | None = None
         self._observation: jax.Array | None = None  # the last one returned; None when stale
+        self._scenes: list[AbstractEnv] | None = None  # per-env scenes, None while all share `scene`
+        self._rows: jax.Array | None = None  # their packed parameters, one row per env
         # Restarts place their starts in this buffer: the rows of envs that do not restart are unused.
         self._starts = np.zeros((num_envs, self.initial_bounds[0].size), dtype=self.dtype)
 
@@ -74,12 +80,44 @@ class Batch:
     def scene(self, scene: AbstractEnv) -> None:
         self._split = SplitScene(scene, self.dtype)
         self._key = self._split.carried_key(self._key)
+        self._scenes = self._rows = None
         self._observation = None  # of the old scene: the next step observes again
+
+    def scene_at(self, index: int) -> AbstractEnv:
+        """The scene env `index` steps with."""
+        return self.scene if self._scenes is None else self._scenes[index]
+
+    def set_scenes(self, indices: list[int], scenes: list[AbstractEnv]) -> None:
+        """Env `indices[k]` steps with `scenes[k]` from its next step on; the other envs keep theirs.
+
+        The scenes may differ from the batch's in their array parameters only (a solver, a
+        shape or a Python value would need another compiled program): anything else is
+        refused with a ValueError.
+        """
+        rows = []
+        for index, scene in zip(indices, scenes, strict=True):
+            split = SplitScene(scene, self.dtype)
+            if split.compiled is not self._split.compiled:
+                raise ValueError(
+                    f"env {index}'s scene differs from the batch's in more than its array parameters "
+                    "(solver, static fields): assign it to `scene`, for every env, instead"
+                )
+            rows.append(split.parameters)
+        if self._scenes is None:
+            self._scenes = [self.scene] * self.num_envs
+            with self._split.precision():
+                self._rows = jnp.tile(self._split.parameters, (self.num_envs, 1))
+        for index, scene in zip(indices, scenes, strict=True):
+            self._scenes[index] = scene
+        with self._split.precision():
+            self._rows = self._rows.at[jnp.asarray(indices, dtype=int)].set(jnp.stack(rows))
+        self._observation = None
 
     @property
     def parameters(self) -> jax.Array:
-        """The scene's array leaves packed into one vector of `dtype`: the compiled functions' first argument."""
-        return self._split.parameters
+        """The compiled functions' first argument: the scene's array leaves packed into one
+        vector of `dtype`, or one row per env after `set_scenes`."""
+        return self._split.parameters if self._rows is None else self._rows
 
     @property
     def key(self) -> jax.Array | None:
@@ -128,7 +166,7 @@ class Batch:
             self._y = jnp.asarray(starts, dtype=self.dtype)
             self._steps = jnp.zeros(self.num_envs, dtype=int)
             self._observation, self._key = split.compiled.batch_observe(
-                split.parameters, self._y, self._steps, self._key
+                self.parameters, self._y, self._steps, self._key
             )
         return np.array(self._observation)
 
@@ -138,7 +176,7 @@ class Batch:
         observation = self._current_observation()
         with split.precision():
             outputs = split.compiled.batch_advance(
-                split.parameters, self._y, self._steps, actions, self._key, observation
+                self.parameters, self._y, self._steps, actions, self._key, observation
             )
         return self._take(outputs)
 
@@ -150,7 +188,7 @@ class Batch:
         self._starts[mask] = starts
         with split.precision():
             outputs = split.compiled.batch_advance_or_restart(
-                split.parameters, self._y, self._steps, actions, self._key, observation, mask, self._starts
+                self.parameters, self._y, self._steps, actions, self._key, observation, mask, self._starts
             )
         return self._take(outputs)
 
@@ -162,7 +200,7 @@ class Batch:
         self._starts[mask] = starts
         with split.precision():
             self._y, self._steps, self._observation, self._key = split.compiled.batch_restart(
-                split.parameters, self._y, self._steps, self._key, observation, mask, self._starts
+                self.parameters, self._y, self._steps, self._key, observation, mask, self._starts
             )
         return np.array(self._observation)
 
@@ -174,14 +212,14 @@ class Batch:
             y = jnp.asarray(starts, dtype=self.dtype)
             steps = jnp.zeros(self.num_envs, dtype=int)
             no_restart = np.zeros(self.num_envs, dtype=np.bool_)
-            observation, _ = split.compiled.batch_observe(split.parameters, y, steps, self._key)
-            arguments = (split.parameters, y, steps, actions, self._key, observation)
+            observation, _ = split.compiled.batch_observe(self.parameters, y, steps, self._key)
+            arguments = (self.parameters, y, steps, actions, self._key, observation)
             jax.block_until_ready(split.compiled.batch_advance(*arguments))
             if fused:
                 jax.block_until_ready(split.compiled.batch_advance_or_restart(*arguments, no_restart, starts))
             if restart:
                 jax.block_until_ready(
-                    split.compiled.batch_restart(split.parameters, y, steps, self._key, observation, no_restart, starts)
+                    split.compiled.batch_restart(self.parameters, y, steps, self._key, observation, no_restart, starts)
                 )
 
     # -- internals -----------------------------------------------------------------------
@@ -193,7 +231,7 @@ class Batch:
             split = self._split
             with split.precision():
                 self._observation, self._key = split.compiled.batch_observe(
-                    split.parameters, self._y, self._steps, self._key
+                    self.parameters, self._y, self._steps, self._key
                 )
         return self._observation
 

@@ -63,8 +63,9 @@ def build_scene(scene_cls: type[AbstractEnv], kwargs: dict[str, Any]) -> Abstrac
 
 class Compiled(NamedTuple):
     """The jitted functions of one scene configuration. Each takes the packed parameters
-    first and the carried key (None for a deterministic scene) among its arguments, and
-    returns the key to carry next.
+    first (the batched ones: one vector shared by all envs, or one row per env) and the
+    carried key (None for a deterministic scene) among its arguments, and returns the key
+    to carry next.
 
     - `step(parameters, inputs, key) -> (outcome, key)`: one env from `inputs`, the
       action, step count and state packed by `pack_step`; `outcome` packs the next state,
@@ -244,16 +245,25 @@ def _functions(treedef, static, layout) -> Compiled:
         key = step_keys(key, scene.stochastic).observation
         return scene.observation(EnvState(y=y, steps=steps), key=key).astype(jnp.float32)
 
-    def observe_all(scene, y, steps, key):
-        key, keys = next_key(key, num_envs=y.shape[0])
-        return jax.vmap(observe_one, in_axes=(None, 0, 0, 0))(scene, y, steps, keys), key
+    def env_axis(parameters):
+        # One vector shared by every env (the common case: the scene's leaves are not
+        # batched, so the step costs what a single scene's does), or one row per env.
+        return 0 if parameters.ndim == 2 else None
 
-    def advance_all(scene, y, steps, action, key, observation):
+    def observe_all(parameters, y, steps, key):
         key, keys = next_key(key, num_envs=y.shape[0])
-        y, steps, observation, reward, terminated, info = jax.vmap(layer_advance, in_axes=(None, 0, 0, 0, 0, 0))(
-            scene, y, steps, action, keys, observation
+        observe = lambda p, *rest: observe_one(scene_of(p), *rest)  # noqa: E731
+        return jax.vmap(observe, in_axes=(env_axis(parameters), 0, 0, 0))(parameters, y, steps, keys), key
+
+    def advance_all(parameters, y, steps, action, key, observation):
+        key, keys = next_key(key, num_envs=y.shape[0])
+        axis = env_axis(parameters)
+        advance = lambda p, *rest: layer_advance(scene_of(p), *rest)  # noqa: E731
+        y, steps, observation, reward, terminated, info = jax.vmap(advance, in_axes=(axis, 0, 0, 0, 0, 0))(
+            parameters, y, steps, action, keys, observation
         )
-        truncated = jax.vmap(scene.truncate)(EnvState(y=y, steps=steps))
+        truncate = lambda p, state: scene_of(p).truncate(state)  # noqa: E731
+        truncated = jax.vmap(truncate, in_axes=(axis, 0))(parameters, EnvState(y=y, steps=steps))
         return y, steps, observation, (reward, terminated, truncated, info), key
 
     def outcome_rows(reward, terminated, truncated, info):
@@ -262,10 +272,10 @@ def _functions(treedef, static, layout) -> Compiled:
         rows = (reward, terminated, truncated, info["solver_ok"], info["solver_steps"], info["action_ok"])
         return jnp.stack([jnp.astype(x, reward.dtype) for x in rows])
 
-    def restart(scene, y, steps, key, observation, mask, starts):
+    def restart(parameters, y, steps, key, observation, mask, starts):
         y = jnp.where(mask[:, None], starts, y)
         steps = jnp.where(mask, 0, steps)
-        fresh, key = observe_all(scene, starts, steps, key)
+        fresh, key = observe_all(parameters, starts, steps, key)
         return y, steps, jnp.where(mask[:, None], fresh, observation), key
 
     @jax.jit
@@ -291,20 +301,19 @@ def _functions(treedef, static, layout) -> Compiled:
 
     @jax.jit
     def batch_observe(parameters, y, steps, key):
-        return observe_all(scene_of(parameters), y, steps, key)
+        return observe_all(parameters, y, steps, key)
 
     @jax.jit
     def batch_advance(parameters, y, steps, action, key, observation):
-        y, steps, observation, outcome, key = advance_all(scene_of(parameters), y, steps, action, key, observation)
+        y, steps, observation, outcome, key = advance_all(parameters, y, steps, action, key, observation)
         return y, steps, observation, outcome_rows(*outcome), key
 
     @jax.jit
     def batch_advance_or_restart(parameters, y, steps, action, key, observation, mask, starts):
-        scene = scene_of(parameters)
         y, steps, observation, (reward, terminated, truncated, info), key = advance_all(
-            scene, y, steps, action, key, observation
+            parameters, y, steps, action, key, observation
         )
-        y, steps, observation, key = restart(scene, y, steps, key, observation, mask, starts)
+        y, steps, observation, key = restart(parameters, y, steps, key, observation, mask, starts)
         reward = jnp.where(mask, 0, reward)
         info = {
             "solver_ok": info["solver_ok"] | mask,
@@ -315,7 +324,7 @@ def _functions(treedef, static, layout) -> Compiled:
 
     @jax.jit
     def batch_restart(parameters, y, steps, key, observation, mask, starts):
-        return restart(scene_of(parameters), y, steps, key, observation, mask, starts)
+        return restart(parameters, y, steps, key, observation, mask, starts)
 
     return Compiled(step, observe, batch_observe, batch_advance, batch_advance_or_restart, batch_restart)
 

@@ -45,4 +45,49 @@ def draw(renderer: Any, spec: GymSpec, scene: Any, state: np.ndarray, action: np
     return renderer.render()
 
 
-__all__ = ["draw", "make_renderer", "render_fps", "require_pygame"]
+def tile(frames: list[np.ndarray]) -> np.ndarray:
+    """The frames (all of one shape, `(height, width, 3)`) in a grid of `ceil(sqrt(n))`
+    columns, row by row, the empty cells black: how a vector env shows all its envs at once."""
+    frames = np.asarray(frames)
+    count, height, width, channels = frames.shape
+    columns = int(np.ceil(np.sqrt(count)))
+    rows = -(-count // columns)
+    padded = np.concatenate([frames, np.zeros((rows * columns - count, height, width, channels), frames.dtype)])
+    grid = padded.reshape(rows, columns, height, width, channels).transpose(0, 2, 1, 3, 4)
+    return grid.reshape(rows * height, columns * width, channels)
+
+
+class HumanWindow:
+    """A pygame window showing RGB frames at `fps`, as Gymnasium's `HumanRendering` wrapper shows them."""
+
+    def __init__(self, fps: int):
+        require_pygame()
+        self.fps = fps
+        self._window = None
+        self._clock = None
+
+    def show(self, frame: np.ndarray) -> None:
+        import pygame
+
+        size = (frame.shape[1], frame.shape[0])
+        if self._window is None:
+            pygame.init()
+            pygame.display.init()
+            self._window = pygame.display.set_mode(size)
+            self._clock = pygame.time.Clock()
+        surface = pygame.surfarray.make_surface(np.transpose(frame, (1, 0, 2)))
+        self._window.blit(surface, (0, 0))
+        pygame.event.pump()
+        self._clock.tick(self.fps)
+        pygame.display.flip()
+
+    def close(self) -> None:
+        if self._window is not None:
+            import pygame
+
+            pygame.display.quit()
+            pygame.quit()
+            self._window = None
+
+
+__all__ = ["HumanWindow", "draw", "make_renderer", "render_fps", "require_pygame", "tile"]

@@ -55,7 +55,11 @@ class GymnasiumVectorEnv(VectorEnv):
     computation, it runs in the calling thread, which is faster for steps this small.
     """
 
-    metadata = {"render_modes": ["rgb_array"], "render_fps": 50, "autoreset_mode": AutoresetMode.NEXT_STEP}
+    metadata = {
+        "render_modes": ["human", "rgb_array", "rgb_array_list"],
+        "render_fps": 50,
+        "autoreset_mode": AutoresetMode.NEXT_STEP,
+    }
 
     def __init__(
         self,
@@ -92,6 +96,8 @@ class GymnasiumVectorEnv(VectorEnv):
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}")
         self.render_mode = render_mode
         self._renderer = None
+        self._window = None  # the human mode's
+        self._frame_lists: list[list[np.ndarray]] = [[] for _ in range(num_envs)]  # rgb_array_list's
         self._options: dict[str, Any] | None = None
         self._ended = np.zeros(num_envs, dtype=np.bool_)  # the envs whose episode ended at the last step
         self.last_action: np.ndarray | None = None  # what the renderer draws (Pendulum's torque)
@@ -156,6 +162,7 @@ class GymnasiumVectorEnv(VectorEnv):
         observation = self.batch.reset(self.starts(self.np_random, options, self.num_envs))
         self._ended = np.zeros(self.num_envs, dtype=np.bool_)
         self.last_action = None
+        self._rendered(None)
         return observation, {}
 
     def _reset_masked(self, options: dict[str, Any]) -> np.ndarray:
@@ -174,7 +181,9 @@ class GymnasiumVectorEnv(VectorEnv):
         self._options = options or None
         starts = self.starts(self.np_random, self._options, int(np.count_nonzero(mask)))
         self._ended = self._ended & ~mask
-        return self.batch.restart(mask, starts)
+        observation = self.batch.restart(mask, starts)
+        self._rendered(mask)
+        return observation
 
     def step(self, actions):
         actions = check_actions(self.single_action_space, actions, self.num_envs, self.dtype)
@@ -208,6 +217,9 @@ class GymnasiumVectorEnv(VectorEnv):
             }
             starts = self.starts(self.np_random, self._options, int(np.count_nonzero(ended)))
             observation = self.batch.restart(ended, starts)
+        if self.render_mode in ("human", "rgb_array_list"):
+            restarted = self._ended if mode == AutoresetMode.SAME_STEP else restarts
+            self._rendered(np.zeros(self.num_envs, dtype=np.bool_) if restarted is None else restarted)
         return observation, outcome.reward, outcome.terminated, outcome.truncated, {**self._info(outcome, mask), **info}
 
     def _info(self, outcome: Outcome, mask: np.ndarray) -> dict[str, np.ndarray]:
@@ -222,12 +234,53 @@ class GymnasiumVectorEnv(VectorEnv):
         }
 
     def __getstate__(self) -> dict[str, Any]:
-        return {name: value for name, value in self.__dict__.items() if name != "_renderer"}
+        return {name: value for name, value in self.__dict__.items() if name not in ("_renderer", "_window")}
 
     def __setstate__(self, state: dict[str, Any]) -> None:
-        self.__dict__.update(state, _renderer=None)
+        self.__dict__.update(state, _renderer=None, _window=None)
+
+    # -- rendering: each mode as Gymnasium's `SyncVectorEnv` of envs made with it ----------
+
+    def frame(self, index: int) -> np.ndarray:
+        """Env `index`'s picture (an RGB array), drawn by Gymnasium's renderer from its state and scene."""
+        states = self.state
+        if states is None:
+            raise ValueError("the state is None: call reset before render")
+        if self._renderer is None:
+            self._renderer = _render.make_renderer(self._gym_spec, "rgb_array")
+        action = None if self.last_action is None else self.last_action[index]
+        return _render.draw(self._renderer, self._gym_spec, self.batch.scene_at(index), states[:, index], action)
+
+    def _frames(self) -> list[np.ndarray]:
+        return [self.frame(index) for index in range(self.num_envs)]
+
+    def show(self) -> None:
+        """Show every env, tiled in one pygame window (`human`; the window opens at the first call)."""
+        if self._window is None:
+            self._window = _render.HumanWindow(self.metadata["render_fps"])
+        self._window.show(_render.tile(self._frames()))
+
+    def _rendered(self, restarted: np.ndarray | None) -> None:
+        """What the render modes that draw by themselves do after a reset or step (`restarted`:
+        the envs that restarted, None for all): `human` shows every env, tiled in one window,
+        as each of `SyncVectorEnv`'s human envs draws itself; `rgb_array_list` keeps each env's
+        frames since its last reset, as `RenderCollection` does for each env."""
+        if self.render_mode == "human":
+            self.show()
+        elif self.render_mode == "rgb_array_list":
+            frames = self._frames()
+            if restarted is None:
+                self._frame_lists = [[frame] for frame in frames]
+                return
+            for index, frame in enumerate(frames):
+                if restarted[index]:
+                    self._frame_lists[index] = [frame]
+                else:
+                    self._frame_lists[index].append(frame)
 
     def render(self):
+        """`rgb_array`: each env's frame; `rgb_array_list`: each env's frames since the last
+        `render` or its reset (then emptied); `human`: one None per env, as every reset and step shows the envs."""
         if self.render_mode is None:
             gymnasium.logger.warn(
                 "You are calling render method without specifying any render mode. "
@@ -235,21 +288,20 @@ class GymnasiumVectorEnv(VectorEnv):
                 f'e.g. gym.make_vec("{self._gym_spec.id}", render_mode="rgb_array")'
             )
             return None
-        states = self.state
-        if states is None:
-            raise ValueError("the state is None: call reset before render")
-        if self._renderer is None:
-            self._renderer = _render.make_renderer(self._gym_spec, self.render_mode)
-        actions = [None] * self.num_envs if self.last_action is None else list(self.last_action)
-        return [
-            _render.draw(self._renderer, self._gym_spec, self.scene, state, action)
-            for state, action in zip(states.T, actions, strict=True)
-        ]
+        if self.render_mode == "human":
+            return (None,) * self.num_envs
+        if self.render_mode == "rgb_array_list":
+            frames, self._frame_lists = self._frame_lists, [[] for _ in range(self.num_envs)]
+            return tuple(frames)
+        return self._frames()
 
     def close_extras(self, **kwargs: Any) -> None:
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
+        if self._window is not None:
+            self._window.close()
+            self._window = None
 
 
 __all__ = ["GymnasiumVectorEnv"]

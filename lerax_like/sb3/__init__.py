@@ -29,7 +29,8 @@ def make_vec_env(env_id: str, n_envs: int = 1, seed: int | None = None, **option
     (`seed + i` for env `i` at the first reset, the action space seeded with
     `seed + start_index`), `env_kwargs` as `gymnasium.make` takes them (scene keywords,
     `max_episode_steps`, `render_mode`, which defaults to `"rgb_array"` as in SB3), and
-    episode statistics in the infos (`VecMonitor`, writing to `monitor_dir` if given;
+    episode statistics in the infos (`MonitoredVecEnv`, SB3's `VecMonitor` that answers
+    `env_is_wrapped(Monitor)` with True as SB3's monitored envs do; writing to `monitor_dir` if given;
     `monitor_kwargs` may hold `info_keywords`). The result steps as SB3's `DummyVecEnv` of
     `gymnasium.make(env_id)` envs (see `CompiledVecEnv`). `dtype` is the precision of the
     step (`"float64"`, Gymnasium's, or `"float32"`).
@@ -44,9 +45,9 @@ def make_vec_env(env_id: str, n_envs: int = 1, seed: int | None = None, **option
 
 
 def __getattr__(name: str):
-    if name == "CompiledVecEnv":
-        return _sb3().CompiledVecEnv
+    if name in ("CompiledVecEnv", "EnvView", "MonitoredVecEnv"):
+        return getattr(_sb3(), name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-__all__ = ["CompiledVecEnv", "make_vec_env"]
+__all__ = ["CompiledVecEnv", "EnvView", "MonitoredVecEnv", "make_vec_env"]

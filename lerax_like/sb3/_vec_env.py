@@ -7,10 +7,111 @@ from typing import Any
 import gymnasium
 import numpy as np
 from gymnasium.utils import seeding
+from stable_baselines3.common.monitor import Monitor
 from stable_baselines3.common.vec_env import VecEnv, VecMonitor
 
 from ..gym import SPECS, GymnasiumVectorEnv
 from ..gym._inputs import check_actions
+from ..gym.envs import ENV_CLASSES
+
+
+class EnvView:
+    """Env `index` of a `CompiledVecEnv`, as `DummyVecEnv`'s `get_attr`, `set_attr` and
+    `env_method` see its single env (the `Monitor` over `gymnasium.make(env_id)`).
+
+    It has Gymnasium's attributes of the id (`masspole`, `goal_velocity`, ...: those of
+    `lerax_like.gym.envs`' classes), read from this env's scene and written to it alone:
+    a write changes this env's physics from its next step on. `scene` is this env's scene,
+    `state` its state, `np_random` its generator, `render()` its frame (`rgb_array`) or the
+    window of all envs (`human`); `get_wrapper_attr`, `set_wrapper_attr` and
+    `has_wrapper_attr` are Gymnasium's. Other names read the vector env's shared
+    attributes (`render_mode`, `max_episode_steps`, `dtype`); a name written that the env
+    does not have is kept on this view, as `DummyVecEnv` keeps it on the wrapper.
+    """
+
+    def __init__(self, venv: "CompiledVecEnv", index: int):
+        object.__setattr__(self, "_venv", venv)
+        object.__setattr__(self, "_index", index)
+
+    @property
+    def scene(self):
+        return self._venv.batch.scene_at(self._index)
+
+    @scene.setter
+    def scene(self, scene) -> None:
+        self._venv.batch.set_scenes([self._index], [scene])
+
+    @property
+    def state(self) -> np.ndarray | None:
+        state = self._venv.batch.state
+        return None if state is None else state[self._index]
+
+    @property
+    def np_random(self) -> np.random.Generator | None:
+        return self._venv.generators[self._index]
+
+    @property
+    def spec(self):
+        return self._venv.spec
+
+    @property
+    def unwrapped(self) -> "EnvView":
+        return self
+
+    @property
+    def observation_space(self):
+        return self._venv.observation_space
+
+    @property
+    def action_space(self):
+        return self._venv.action_space
+
+    def render(self):
+        vector = self._venv.vector
+        if vector.render_mode == "human":
+            return self._venv.render()
+        if vector.render_mode is None:
+            return None
+        return vector.frame(self._index)
+
+    def get_wrapper_attr(self, name: str) -> Any:
+        return getattr(self, name)
+
+    def has_wrapper_attr(self, name: str) -> bool:
+        return hasattr(self, name)
+
+    def set_wrapper_attr(self, name: str, value: Any, *, force: bool = True) -> bool:
+        if force or hasattr(self, name):
+            setattr(self, name, value)
+            return True
+        return False
+
+    def __getattr__(self, name: str) -> Any:
+        # Only for names this class and its instance lack: the vector env's shared ones.
+        # Private names are not forwarded (a view being unpickled has no `_venv` yet).
+        if name.startswith("_"):
+            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+        return getattr(self._venv.vector, name)
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        if isinstance(getattr(type(self), name, None), property):
+            object.__setattr__(self, name, value)
+        else:
+            self.__dict__[name] = value
+
+
+def _view_class(env_id: str) -> type[EnvView]:
+    """`EnvView` with the id's Gymnasium attributes: the properties of its env class, which
+    read and write `self.scene` (here, one env's scene)."""
+    vector_class = ENV_CLASSES[env_id][1]
+    names = dict.fromkeys(name for name, _ in SPECS[env_id].declared.attributes)
+    attributes = {name: vars(vector_class)[name] for name in names}
+    return type(f"{vector_class.__name__}View", (EnvView,), {"__module__": __name__, **attributes})
+
+
+_VIEW_CLASSES = {env_id: _view_class(env_id) for env_id in SPECS}
+# Module attributes, so that pickle finds them by name (a VecEnv with its views pickles).
+globals().update({cls.__name__: cls for cls in _VIEW_CLASSES.values()})
 
 
 class CompiledVecEnv(VecEnv):
@@ -33,9 +134,19 @@ class CompiledVecEnv(VecEnv):
     One step is `Batch.advance` (one compiled call of all envs) and, only when some
     episode ended, `Batch.restart` of those envs ("advance, then restart"); their starts
     are drawn on the host for them alone. Actions that cannot be applied are refused
-    with a `ValueError` naming them. Attributes (`get_attr`, `set_attr`, `env_method`) are those of
-    the `GymnasiumVectorEnv` behind it (`scene`, `state`, `render_mode`), shared by all
-    envs: `set_attr` applies to all of them or refuses.
+    with a `ValueError` naming them.
+
+    `get_attr`, `set_attr` and `env_method` act on each env's `EnvView`, as `DummyVecEnv`'s
+    act on each env: Gymnasium's attributes of the id (`masspole`, `goal_velocity`, ...)
+    read and write that env's own scene, so `set_attr("masspole", 0.2, indices=[1])`
+    changes env 1's physics alone (the batch then steps with one parameter row per env,
+    still one compiled call). Unlike `DummyVecEnv` over Gymnasium's env, where `set_attr`
+    sets the attribute on the outer `Monitor` wrapper and leaves the physics as it was
+    (only `env_method("set_wrapper_attr", ...)` reaches the env), `set_attr` here reaches
+    the physics, as the brief of an SB3 user asks.
+
+    `render_mode` is None, `"rgb_array"` (SB3's `render()` tiles the envs' frames) or
+    `"human"` (every reset and step shows the envs, tiled in one pygame window).
     """
 
     def __init__(
@@ -50,6 +161,8 @@ class CompiledVecEnv(VecEnv):
     ):
         if env_id not in SPECS:
             raise ValueError(f"env_id must be one of {tuple(SPECS)}, got {env_id!r}")
+        if render_mode not in _RENDER_MODES:
+            raise ValueError(f"render_mode must be one of {_RENDER_MODES}, got {render_mode!r}")
         spec = SPECS[env_id]
         if max_episode_steps is None:
             max_episode_steps = spec.max_episode_steps
@@ -64,6 +177,7 @@ class CompiledVecEnv(VecEnv):
         self.max_episode_steps = max_episode_steps
         self._generators: list[np.random.Generator | None] = [None] * num_envs
         self._actions: np.ndarray | None = None
+        self._views = [_VIEW_CLASSES[env_id](self, index) for index in range(num_envs)]
         super().__init__(num_envs, self._vector.single_observation_space, self._vector.single_action_space)
 
     # -- SB3's VecEnv ------------------------------------------------------------------
@@ -78,6 +192,9 @@ class CompiledVecEnv(VecEnv):
         self.reset_infos = [{} for _ in range(self.num_envs)]
         self._reset_seeds()
         self._reset_options()
+        self._vector.last_action = None
+        if self.render_mode == "human":
+            self._vector.show()
         return observation
 
     def step_async(self, actions: np.ndarray) -> None:
@@ -103,6 +220,8 @@ class CompiledVecEnv(VecEnv):
             fresh = self._batch.restart(done, self._starts(ended))
             observation[ended] = fresh[ended]
         self._vector.last_action = actions
+        if self.render_mode == "human":
+            self._vector.show()
         return observation, reward, done, infos
 
     def _starts(self, indices) -> np.ndarray:
@@ -118,31 +237,55 @@ class CompiledVecEnv(VecEnv):
             return [None] * self.num_envs
         return self._vector.render()
 
+    def render(self, mode: str | None = None):
+        if self.render_mode == "human" and mode in (None, "human"):
+            # SB3's VecEnv.render would call every env's render: one window shows them all.
+            self._vector.show()
+            return None
+        return super().render(mode)
+
     def get_attr(self, attr_name: str, indices=None) -> list[Any]:
-        value = getattr(self._vector, attr_name)
-        return [value] * len(self._indices(indices))
+        return [self._views[index].get_wrapper_attr(attr_name) for index in self._indices(indices)]
 
     def set_attr(self, attr_name: str, value: Any, indices=None) -> None:
-        if len(self._indices(indices)) != self.num_envs:
-            raise ValueError(
-                f"set_attr({attr_name!r}) must apply to all {self.num_envs} envs (indices=None): "
-                "they share one compiled step"
-            )
-        setattr(self._vector, attr_name, value)
+        for index in self._indices(indices):
+            setattr(self._views[index], attr_name, value)
 
     def env_method(self, method_name: str, *method_args, indices=None, **method_kwargs) -> list[Any]:
-        result = getattr(self._vector, method_name)(*method_args, **method_kwargs)
-        return [result] * len(self._indices(indices))
+        return [
+            self._views[index].get_wrapper_attr(method_name)(*method_args, **method_kwargs)
+            for index in self._indices(indices)
+        ]
 
     def env_is_wrapped(self, wrapper_class, indices=None) -> list[bool]:
+        # No Gymnasium wrapper is around the envs; `make_vec_env`'s monitor answers for `Monitor`.
         return [False] * len(self._indices(indices))
 
     def _indices(self, indices) -> list[int]:
         if indices is None:
             return list(range(self.num_envs))
-        if isinstance(indices, int):
-            return [indices]
-        return list(indices)
+        indices = [indices] if isinstance(indices, (int, np.integer)) else list(indices)
+        for index in indices:
+            if not isinstance(index, (int, np.integer)) or not -self.num_envs <= index < self.num_envs:
+                raise IndexError(f"indices must be env indices in [0, {self.num_envs}), got {index!r}")
+        return [int(index) % self.num_envs for index in indices]
+
+    # -- what the views reach --------------------------------------------------------------
+
+    @property
+    def batch(self):
+        """The `Batch` the envs step in (`batch.scene_at(i)`: env `i`'s scene)."""
+        return self._batch
+
+    @property
+    def vector(self) -> GymnasiumVectorEnv:
+        """The Gymnasium vector env behind this one: spaces, renderer, shared attributes."""
+        return self._vector
+
+    @property
+    def generators(self) -> list[np.random.Generator | None]:
+        """Each env's NumPy generator, from which its starts are drawn."""
+        return self._generators
 
     # -- the scene, as the vector env shows it -----------------------------------------
 
@@ -159,6 +302,24 @@ class CompiledVecEnv(VecEnv):
     def state(self) -> np.ndarray | None:
         """The states, shape `(n, num_envs)`, as `GymnasiumVectorEnv.state`."""
         return self._vector.state
+
+
+_RENDER_MODES = (None, "human", "rgb_array")
+
+
+class MonitoredVecEnv(VecMonitor):
+    """SB3's `VecMonitor`, which is what `make_vec_env` monitors with, answering
+    `env_is_wrapped(Monitor)` with True for every env as `DummyVecEnv` of `Monitor`-wrapped
+    envs does: its episode statistics (`info["episode"]`) are `Monitor`'s. So SB3 knows the
+    envs are monitored (`evaluate_policy` reads the episodes from it), and a `VecMonitor`
+    put over it warns, as SB3 warns over its own monitored envs, instead of recording every
+    episode a second time unannounced."""
+
+    def env_is_wrapped(self, wrapper_class, indices=None) -> list[bool]:
+        if issubclass(Monitor, wrapper_class):
+            count = self.num_envs if indices is None else len([indices] if np.ndim(indices) == 0 else indices)
+            return [True] * count
+        return self.venv.env_is_wrapped(wrapper_class, indices)
 
 
 _UNSUPPORTED = {
@@ -204,7 +365,7 @@ def make_vec_env(
     if monitor_dir is not None:
         os.makedirs(monitor_dir, exist_ok=True)
         filename = os.path.join(monitor_dir, str(start_index))
-    return VecMonitor(venv, filename=filename, **monitor_kwargs)
+    return MonitoredVecEnv(venv, filename=filename, **monitor_kwargs)
 
 
-__all__ = ["CompiledVecEnv", "make_vec_env"]
+__all__ = ["CompiledVecEnv", "EnvView", "MonitoredVecEnv", "make_vec_env"]
