@@ -66,6 +66,13 @@ def test_plain_jit_of_a_step_runs_and_matches_filter_jit(name, solver):
     _compare_jit_with_filter_jit(ll.SCENES[name](solver=solver), jr.key(7))
 
 
+@pytest.mark.parametrize("adjoint", ["checkpoint", "forward", "backsolve"])
+def test_every_leaf_is_an_array_whatever_the_adjoint(adjoint):
+    env = ll.with_adjoint(ll.CartPoleContinuous(solver="tsit5"), adjoint)
+    assert _non_array_leaves(env) == []
+    assert isinstance(env.integrator.adjoint, type(ll.make_adjoint(adjoint)))
+
+
 def test_plain_jit_with_a_users_controller_and_a_gradient_through_it():
     env = ll.CartPoleContinuous(solver="tsit5", stepsize_controller=_user_controller())
     _compare_jit_with_filter_jit(env, jr.key(3))
