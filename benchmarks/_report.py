@@ -292,8 +292,7 @@ def throughput(folder, link):
 
 
 def profile_step(folder, link):
-    rows = _read_csv(folder, "profile_step.csv")
-    if rows is None:
+    if (rows := _read_csv(folder, "profile_step.csv")) is None:
         return []
     return ["Each row adds one part of `env.step` to the previous workload; time relative to gymnax's step "
             "(minimum of interleaved repeats):", ""] + _table(
