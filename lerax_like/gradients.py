@@ -80,4 +80,4 @@ def with_adjoint(env, adjoint: "str | diffrax.AbstractAdjoint"):
     """
     adjoint = make_adjoint(adjoint)
     warn_if_silent(adjoint)
-    return eqx.tree_at(lambda e: e.integrator.adjoint, env, adjoint)
+    return eqx.tree_at(lambda e: e.integrator, env, env.integrator.with_adjoint(adjoint))

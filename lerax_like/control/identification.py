@@ -18,6 +18,7 @@ import optimistix as optx
 
 from .._types import Array, Float
 from ..env import AbstractEnv, EnvState, rollout
+from ..gradients import with_adjoint
 
 
 def multiple_shooting_residuals(
@@ -70,7 +71,7 @@ def fit_parameters(
     residuals per state coordinate, so that no coordinate dominates by its units.
     """
 
-    env = eqx.tree_at(lambda e: e.integrator.adjoint, env, diffrax.ForwardMode())
+    env = with_adjoint(env, diffrax.ForwardMode())
 
     def residuals(log_parameters, _):
         model = eqx.tree_at(where, env, jax.tree.map(jnp.exp, log_parameters))

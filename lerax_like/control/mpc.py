@@ -17,6 +17,7 @@ import numpy as np
 
 from .._types import Array, BoolScalar, Float, Key, Scalar
 from ..env import AbstractEnv, EnvState
+from ..gradients import with_adjoint
 from .identification import fit_parameters
 from .ilqr import ilqr
 
@@ -36,7 +37,7 @@ def make_planner(
 
     @eqx.filter_jit
     def plan(model: AbstractEnv, y, actions, iterations):
-        model = eqx.tree_at(lambda e: e.integrator.adjoint, model, diffrax.ForwardMode())
+        model = with_adjoint(model, diffrax.ForwardMode())
         key = jr.key(0)  # deterministic transitions: the key is unused
 
         def step(y, action):

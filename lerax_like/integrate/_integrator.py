@@ -27,21 +27,23 @@ class Integrator(eqx.Module):
       step) or an adaptive controller such as `PIDController`.
     - `max_steps`: the step budget of one env step; exhausting it is reported as
       `solver_ok=False`, never raised.
-    - `adjoint`: how gradients pass through the solve.
+    - `adjoint`: how gradients pass through the solve (`with_adjoint` replaces it).
+
+    The three are held split (`*_arrays`, `*_static`): their arrays are leaves (a
+    tolerance given as an array is traced, so one compilation serves a sweep of them),
+    everything else (a controller's `norm` function, diffrax's marker for tolerances taken
+    from the controller, Python numbers and flags) is static. Every leaf of an env is then
+    an array, so an env is a valid argument of plain `jax.jit` and `jax.grad`, not only of
+    `eqx.filter_jit`, whatever the solver, controller and adjoint; under `eqx.filter_jit`
+    nothing changes (it holds non-arrays static too).
     """
 
-    # The solver and the controller are held split: their arrays are leaves of the env (a
-    # tolerance given as an array is traced, so one compilation serves a sweep of them),
-    # everything else (a controller's `norm` function, diffrax's marker for tolerances
-    # taken from the controller, Python numbers) is static. Every leaf of an env is then
-    # an array, and an env is a valid argument of plain `jax.jit`, not only of
-    # `eqx.filter_jit`; under `eqx.filter_jit` nothing changes (it holds non-arrays
-    # static too).
     solver_arrays: Any
     solver_static: Any = eqx.field(static=True)
     controller_arrays: Any
     controller_static: Any = eqx.field(static=True)
-    adjoint: diffrax.AbstractAdjoint
+    adjoint_arrays: Any
+    adjoint_static: Any = eqx.field(static=True)
     max_steps: int = eqx.field(static=True)
     substeps: int = eqx.field(static=True)
 
@@ -90,8 +92,11 @@ class Integrator(eqx.Module):
         check_count(max_steps, "max_steps")
         self.solver_arrays, self.solver_static = eqx.partition(solver, eqx.is_array)
         self.controller_arrays, self.controller_static = eqx.partition(stepsize_controller, eqx.is_array)
-        self.adjoint = diffrax.RecursiveCheckpointAdjoint() if adjoint is None else adjoint
-        warn_if_silent(self.adjoint)
+        adjoint = diffrax.RecursiveCheckpointAdjoint() if adjoint is None else adjoint
+        if not isinstance(adjoint, diffrax.AbstractAdjoint):
+            raise TypeError(f"adjoint must be a diffrax adjoint, got {adjoint!r}")
+        warn_if_silent(adjoint)
+        self.adjoint_arrays, self.adjoint_static = eqx.partition(adjoint, eqx.is_array)
         self.max_steps = max_steps
         self.substeps = substeps
 
@@ -104,6 +109,17 @@ class Integrator(eqx.Module):
     def stepsize_controller(self) -> diffrax.AbstractStepSizeController:
         """The step-size controller."""
         return eqx.combine(self.controller_arrays, self.controller_static)
+
+    @property
+    def adjoint(self) -> diffrax.AbstractAdjoint:
+        """How gradients pass through the solve."""
+        return eqx.combine(self.adjoint_arrays, self.adjoint_static)
+
+    def with_adjoint(self, adjoint: diffrax.AbstractAdjoint) -> "Integrator":
+        """This integrator with `adjoint` in place of its own."""
+        return Integrator(
+            self.solver, self.stepsize_controller, max_steps=self.max_steps, adjoint=adjoint, substeps=self.substeps
+        )
 
     @property
     def adaptive(self) -> bool:
