@@ -93,7 +93,7 @@ def _grazing(guarded: bool):
         class Unguarded(diffrax.PIDController):
             pass
 
-        integrator = eqx.tree_at(lambda i: i.stepsize_controller, integrator, Unguarded(rtol=1e-6, atol=1e-9))
+        integrator = ll.Integrator(integrator.solver, Unguarded(rtol=1e-6, atol=1e-9))
     y0 = jnp.array([wall - 0.5, 1.0, speed, 0.0])
     y, info = jax.jit(
         lambda y0: integrate_with_contacts(integrator, env.physics, env.dynamics, env.contacts, y0, u, env.dt)

@@ -24,9 +24,8 @@ SECTIONS = ("Description", "Action Space", "Observation Space", "Rewards", "Star
 NAMES = sorted(ll.SCENES)
 
 
-def test_the_registry_holds_the_ten_scenes():
-    assert len(ll.SCENES) == 10
-    assert "PlanarQuadrotor" in ll.SCENES
+def test_the_registry_holds_the_scenes():
+    assert {"PlanarQuadrotor", "BouncingBall"} <= set(ll.SCENES)
     for name, scene in ll.SCENES.items():
         assert scene.__name__ == name
         assert getattr(ll, name) is scene  # re-exported from the one registry
@@ -133,6 +132,10 @@ def test_energy_is_conserved_with_zero_input_where_claimed(name):
         physics = env.physics
         if not (isinstance(physics, ll.AbstractConservativeDynamics) and physics.conserves_energy):
             pytest.skip(f"{name}'s dynamics claim no conserved energy")
+        if getattr(env, "contacts", ()):
+            # Impacts dissipate unless elastic: checked with restitution 1 (tests/test_contact.py
+            # checks the energy lost at each impact).
+            env = eqx.tree_at(lambda e: [c.restitution for c in e.contacts], env, replace_fn=jnp.ones_like)
         env = _tight(env)
         state, _, _ = env.reset(key=jr.key(0))
         zero = jnp.zeros_like(env.physical_input(_sample_action(env, jr.key(1))))
