@@ -17,7 +17,7 @@ rate from the conserved momentum conjugate to its angle). Also written: a bounci
 trajectory through several impacts (event times marked) and its gradient by AD against
 central finite differences across a restitution sweep.
 
-    python -m benchmarks contact            # N = 1024, T = 50: results/contact*.csv, contact_*.png
+    python -m benchmarks contact            # N = 1024, T = 30: results/contact*.csv, contact_*.png
     python -m benchmarks contact --quick    # N = 64, T = 20, into results/quick/
 """
 
@@ -229,7 +229,7 @@ def main(argv=None):
     out = args.out or results_dir(args.quick)
     out.mkdir(parents=True, exist_ok=True)
     envs = args.envs or (64 if args.quick else 1024)
-    steps = args.steps or (20 if args.quick else 50)
+    steps = args.steps or (20 if args.quick else 30)
 
     key_start, key_force = jr.split(jr.key(0))
     y0 = jr.uniform(key_start, (envs, 4), minval=-0.05, maxval=0.05)
