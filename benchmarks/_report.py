@@ -483,7 +483,8 @@ def contact(folder, link):
     ]
     by_model = {row["model"]: row for row in rows}
     lines = [
-        f"N = {rows[0]['envs']} vmapped envs, {rows[0]['steps']} steps; throughput in env steps per second; "
+        f"N = {rows[0]['envs']} vmapped envs ({rows[0].get('gradient_envs', rows[0]['envs'])} for the value and "
+        f"gradient), {rows[0]['steps']} steps; throughput in env steps per second; "
         "errors are the largest state error over the rollout against the SciPy reference (first 16 envs).", "",
     ]
     lines += _table(["model", "forward", "value and gradient", "max error", "median error", "max penetration (m)",
