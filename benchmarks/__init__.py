@@ -14,6 +14,7 @@ which `benchmarks/RESULTS.md` is generated. `--quick` runs write to `benchmarks/
 (git-ignored, with its own RESULTS.md), so a smoke run never touches the recorded results.
 """
 
+import argparse
 import dataclasses
 import pathlib
 
@@ -26,6 +27,37 @@ QUICK_RESULTS = RESULTS / "quick"
 def results_dir(quick: bool) -> pathlib.Path:
     """Where a benchmark writes by default: the recorded results, or the git-ignored quick folder."""
     return QUICK_RESULTS if quick else RESULTS
+
+
+def benchmark_parser(description: str, quick: str) -> argparse.ArgumentParser:
+    """A benchmark's command line with the two options the runner passes: `--quick` (`quick`
+    says what it shrinks) and `--out` (the folder, default `results_dir`); add its own."""
+    parser = argparse.ArgumentParser(description=description, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--quick", action="store_true", help=quick)
+    parser.add_argument("--out", type=pathlib.Path, default=None, help="default: benchmarks/results[/quick]")
+    return parser
+
+
+def sized_arguments(
+    description: str, argv, *, quick: tuple[int, int, int], full: tuple[int, int, int]
+) -> argparse.Namespace:
+    """The command line of a benchmark sized by `--envs N`, `--steps T` and `--repeats R`:
+    each defaults to `full`'s `(N, T, R)`, or to `quick`'s with `--quick`."""
+    parser = benchmark_parser(description, quick="N={}, T={}, {} repeats".format(*quick))
+    for name in ("envs", "steps", "repeats"):
+        parser.add_argument(f"--{name}", type=int, default=None)
+    arguments = parser.parse_args(argv)
+    for name, small, large in zip(("envs", "steps", "repeats"), quick, full):
+        if getattr(arguments, name) is None:
+            setattr(arguments, name, small if arguments.quick else large)
+    return arguments
+
+
+def output_folder(arguments: argparse.Namespace) -> pathlib.Path:
+    """Where a benchmark parsed by `benchmark_parser` writes: `--out` or `results_dir`, created."""
+    out = pathlib.Path(arguments.out or results_dir(arguments.quick))
+    out.mkdir(parents=True, exist_ok=True)
+    return out
 
 
 @dataclasses.dataclass(frozen=True)
@@ -43,6 +75,7 @@ _PLOTS = ("matplotlib", "pip install -e '.[study]'")
 _GYMNAX = ("gymnax", "pip install -e '.[bench]'")
 _OPTAX = ("optax", "pip install -e '.[test]'")
 _SB3 = ("stable_baselines3", "pip install stable-baselines3 (with a CPU torch)")
+_REJAX = ("rejax", "pip install -e '.[bench]'")
 
 # In the order `all` runs them.
 BENCHMARKS = {
@@ -62,6 +95,7 @@ BENCHMARKS = {
         Benchmark("stability", "stiff and extreme cases: status and error per solver, and Kvaerno5's root finders", (_STUDY,)),
         Benchmark("domain_randomisation", "a policy trained over pole masses against one trained at the nominal mass", (_OPTAX, _STUDY)),
         Benchmark("ppo_baseline", "PPO (Stable-Baselines3) on the policy-learning task", (_SB3,)),
+        Benchmark("jax_rl", "rejax's PPO on gymnax's CartPole and on lerax_like.gymnax's (euler, rk4, tsit5): time and return", (_GYMNAX, _REJAX)),
         Benchmark("sb3_vector", "PPO on lerax_like.sb3.make_vec_env against SB3's make_vec_env; the VecEnvs' speed", (_SB3,)),
         Benchmark("contact", "located walls against penalty end stops: throughput and accuracy against SciPy", (_STUDY, _PLOTS)),
         Benchmark(

@@ -1,6 +1,16 @@
 """Continuous-time control environments for JAX: physics as vector fields, any diffrax solver."""
 
 from . import physics as physics, spaces as spaces
+# How dynamics and scenes declare their fields, checked by name at construction.
+from ._fields import (
+    FINITE as FINITE,
+    NONNEGATIVE as NONNEGATIVE,
+    POSITIVE as POSITIVE,
+    POSITIVE_OR_INF as POSITIVE_OR_INF,
+    Range as Range,
+    option as option,
+    parameter as parameter,
+)
 from .env import (
     AbstractEnv as AbstractEnv,
     EnvState as EnvState,
@@ -9,11 +19,13 @@ from .env import (
 )
 from .gradients import ADJOINTS as ADJOINTS, make_adjoint as make_adjoint, with_adjoint as with_adjoint
 from .integrate import (
+    HermiteDenseOutput as HermiteDenseOutput,
     Integrator as Integrator,
     RK4 as RK4,
     SemiImplicitEuler as SemiImplicitEuler,
     SOLVER_PRESETS as SOLVER_PRESETS,
     SOLVERS as SOLVERS,
+    SolverFacts as SolverFacts,
     SolverPreset as SolverPreset,
     describe_solver as describe_solver,
     has_error_estimate as has_error_estimate,
@@ -37,9 +49,10 @@ from .physics import (
     MountainCarDynamics as MountainCarDynamics,
     NLinkPendulumDynamics as NLinkPendulumDynamics,
     PendulumDynamics as PendulumDynamics,
+    PlanarQuadrotorDynamics as PlanarQuadrotorDynamics,
     VanDerPolDynamics as VanDerPolDynamics,
 )
-from .scenes import SCENES as SCENES
+from .scenes import SCENES as SCENES, AbstractUnitActionEnv as AbstractUnitActionEnv, register_scene as register_scene
 
 # Every registered scene at the top level (`lerax_like.CartPole`), from the one registry.
 globals().update(SCENES)

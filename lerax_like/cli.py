@@ -22,7 +22,7 @@ SOLVER_HELP = (
 )
 
 
-def solver_from_spec(spec: str) -> "str | diffrax.AbstractSolver":  # noqa: F821 (diffrax is imported lazily)
+def solver_from_spec(spec: str) -> "str | diffrax.AbstractSolver":  # noqa: F821 (imported lazily)
     """The solver a command line names: a preset name, or `module:attribute`.
 
     `module:attribute` imports `module` (from `sys.path`: `PYTHONPATH`, and the current
@@ -32,9 +32,7 @@ def solver_from_spec(spec: str) -> "str | diffrax.AbstractSolver":  # noqa: F821
     """
     import importlib
 
-    import diffrax
-
-    from .integrate import SOLVERS
+    from .integrate import SOLVERS, solver_instance
 
     if not isinstance(spec, str) or not spec:
         raise ValueError(f"solver must be a preset name or 'module:attribute', got {spec!r}")
@@ -51,17 +49,10 @@ def solver_from_spec(spec: str) -> "str | diffrax.AbstractSolver":  # noqa: F821
             value = getattr(value, part)
         except AttributeError:
             raise ValueError(f"solver {spec!r}: module {module_name!r} has no attribute {attribute!r}") from None
-    if isinstance(value, type) and issubclass(value, diffrax.AbstractSolver):
-        try:
-            value = value()
-        except TypeError as error:
-            raise ValueError(
-                f"solver {spec!r}: the class {value.__name__} cannot be built with no arguments ({error}); "
-                "name an instance instead"
-            ) from None
-    if not isinstance(value, diffrax.AbstractSolver):
-        raise ValueError(f"solver {spec!r} names {value!r}, which is no diffrax solver (instance or class)")
-    return value
+    try:
+        return solver_instance(value)
+    except TypeError as error:
+        raise ValueError(f"solver {spec!r}: {error}") from None
 
 
 def _solvers_from(arguments, command: str):
@@ -82,7 +73,8 @@ def _solvers_from(arguments, command: str):
 
 def _study(arguments) -> int:
     from .analysis import StudyConfig, run_study, sweeps_for, write_study
-    from .analysis.report import cheapest_at, format_orders, format_table, matplotlib_available
+    from .analysis.report import VERDICT_TARGETS, cheapest_at, format_orders, format_table, matplotlib_available
+    from .analysis.verdict import verdict_line
     from .analysis.scenes import SCENES
 
     overrides = {}
@@ -103,9 +95,8 @@ def _study(arguments) -> int:
           f"{config.fit_ceiling:g}):")
     print(format_orders(result.convergence_orders()))
     print()
-    for target in (1e-3, 1e-6, 1e-9):
-        best = cheapest_at(result.rows, target)
-        verdict = "none reached it" if best is None else f"{best['label']} at {best['setting']} ({best['seconds']:.2e} s)"
+    for target in VERDICT_TARGETS:
+        verdict = verdict_line(cheapest_at(result.rows, target))
         print(f"cheapest at error <= {target:g} ({config.schedules[0]} actions): {verdict}")
     return _finish(arguments, plot, elapsed, paths)
 

@@ -20,13 +20,14 @@ import jax
 import jax.numpy as jnp
 import jax.random as jr
 
+from ._episode import episode_limit
 from ._fields import POSITIVE, assign_fields, concrete, parameter
 from ._addons import gather_addons
 from ._random import uniform
 from ._types import Array, BoolScalar, Float, Input, IntScalar, Key, Scalar, State
 from .integrate import Integrator, make_integrator
 from .physics import AbstractDynamics
-from .spaces import AbstractSpace
+from .spaces import AbstractSpace, Box, eager_spaces
 
 
 _INTEGRATOR_KEYWORDS = ("solver", "stepsize_controller", "max_steps", "adjoint", "substeps")
@@ -49,11 +50,6 @@ def dynamics(factory):
 def time_step(default: float):
     """The env step `dt` (> 0)."""
     return parameter(default, POSITIVE)
-
-
-def episode_limit(default: int | None):
-    """`max_episode_steps`: the time limit of an episode (None: none)."""
-    return eqx.field(default=default, static=True)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -120,8 +116,10 @@ def step_keys(key: Key | None, stochastic: bool) -> StepKeys:
 class AbstractEnv(eqx.Module):
     """A continuous-time control env: physics (`dynamics`), an `integrator` and a task.
 
-    A scene provides `physical_input`, `observation`, `reward`, `terminal`,
-    `initial_bounds`, `worst_reward` and the two spaces, and declares:
+    A scene provides `physical_input`, `reward`, `initial_bounds`, `worst_reward` and
+    `action_space`; `observation` (the state), `observation_space` (unbounded), `terminal`
+    (never) and `project` (identity) have defaults that a scene overrides where its task
+    differs. It declares:
 
     - `stochastic`: whether `transition`, `observation`, `reward` or `terminal` draw random
       numbers (`initial` always does). A deterministic scene's parts get `key=None` (one
@@ -150,7 +148,7 @@ class AbstractEnv(eqx.Module):
     dynamics: eqx.AbstractVar[AbstractDynamics]
     integrator: eqx.AbstractVar[Integrator]
     dt: eqx.AbstractVar[Scalar]
-    max_episode_steps: eqx.AbstractVar[int | None]
+    max_episode_steps: eqx.AbstractVar[IntScalar | None]
 
     def __init__(self, *fields, **keywords):
         """Every field by keyword (or by position, in declaration order); besides, the
@@ -175,6 +173,10 @@ class AbstractEnv(eqx.Module):
         for contact in getattr(self, "contacts", ()):
             contact.check(self.dynamics)
 
+    def __init_subclass__(cls, **keywords):
+        super().__init_subclass__(**keywords)
+        eager_spaces(cls)  # NumPy bounds inside a jitted trainer that closes over the env
+
     # -- what a scene provides ---------------------------------------------------------
 
     @property
@@ -182,8 +184,10 @@ class AbstractEnv(eqx.Module):
     def action_space(self) -> AbstractSpace: ...
 
     @property
-    @abc.abstractmethod
-    def observation_space(self) -> AbstractSpace: ...
+    def observation_space(self) -> AbstractSpace:
+        """Unbounded, of the state's shape, unless a scene declares it (a fully observed scene)."""
+        low, _ = self.initial_bounds
+        return Box(-jnp.inf, jnp.inf, low.shape)
 
     @property
     @abc.abstractmethod
@@ -194,9 +198,10 @@ class AbstractEnv(eqx.Module):
     def physical_input(self, action: Array) -> Input:
         """The physical input `u` (forces, torques) that `action` applies to the dynamics."""
 
-    @abc.abstractmethod
     def observation(self, state: EnvState, *, key: Key | None) -> Float[Array, "..."]:
-        """What the agent sees of `state`."""
+        """What the agent sees of `state`: the state itself, unless a scene declares otherwise."""
+        del key
+        return state.y
 
     @abc.abstractmethod
     def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
@@ -208,9 +213,14 @@ class AbstractEnv(eqx.Module):
         """A lower bound of the task's rewards for actions in the action space: a failed
         step pays it, so that breaking the solver never pays an agent."""
 
-    @abc.abstractmethod
     def terminal(self, state: EnvState, *, key: Key | None) -> BoolScalar:
-        """Whether `state` ends the episode (the task's own end, not a time limit)."""
+        """Whether `state` ends the episode (the task's own end, not a time limit).
+
+        Never, unless a scene declares an end: the episode then ends by its time limit or a
+        failed step only.
+        """
+        del state, key
+        return jnp.asarray(False)
 
     # -- built from the above ----------------------------------------------------------
 
@@ -324,9 +334,20 @@ class AbstractEnv(eqx.Module):
         return state.steps >= self.max_episode_steps
 
     def reset(self, *, key: Key) -> tuple[EnvState, Array, dict[str, Array]]:
+        """A fresh episode: state, observation, and an info with `step`'s keys and dtypes (so
+        that `lax.scan`/`lax.select` mix the two): a step that integrated nothing and failed
+        at nothing, every `*_ok` flag True, every count zero, `final_observation` the start's."""
+        state, observation = self._start(key)
+        action = jax.eval_shape(lambda: self.action_space.sample(key=jr.key(0)))
+        # Only the structure of a step's info is read: the step is traced, never run.
+        shapes = jax.eval_shape(lambda s, a: self.advance(s, a, key=jr.key(0))[-1], state, action)
+        info = {name: jnp.full(shape.shape, name.endswith("_ok"), shape.dtype) for name, shape in shapes.items()}
+        return state, observation, {**info, "final_observation": observation}
+
+    def _start(self, key: Key) -> tuple[EnvState, Array]:
         keys = step_keys(key, self.stochastic)
         state = self.initial(key=keys.reset)
-        return state, self.observation(state, key=keys.observation), {}
+        return state, self.observation(state, key=keys.observation)
 
     def advance(
         self, state: EnvState, action: Array, *, key: Key | None, observation_dtype=None, observation_before=None
@@ -404,11 +425,12 @@ class AbstractEnv(eqx.Module):
         next_state, observation, reward, terminated, info = self.advance(state, action, key=key)
         truncated = self.truncate(next_state)
         done = terminated | truncated
-        reset_state, reset_observation, _ = self.reset(key=keys.reset)
+        reset_state, reset_observation = self._start(keys.reset)
         new_state = jax.tree.map(lambda fresh, old: jnp.where(done, fresh, old), reset_state, next_state)
         new_observation = jnp.where(done, reset_observation, observation)
-        info = {**info, "final_observation": observation}
-        return new_state, new_observation, reward, terminated, truncated, info
+        # Strong dtypes (a solver's step count is weak-typed), as `reset`'s info has.
+        info = {name: jnp.asarray(value, dtype=value.dtype) for name, value in info.items()}
+        return new_state, new_observation, reward, terminated, truncated, {**info, "final_observation": observation}
 
 
 def _gather_dynamics(cls, fields, keywords) -> None:

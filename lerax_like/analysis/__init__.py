@@ -1,6 +1,14 @@
 """Studies of the envs' numerics: work-precision, convergence orders and invariant drift
 against SciPy; gradient checks and gradient accuracy.
 
+The library, one concept per module: `sweeps` (solver settings), `measurements` (what a
+study measures of one setting), `reference` (SciPy's solutions), `study` (the
+work-precision runner), `verdict` (settings that coincide, resolved timings, the
+cheapest), `convergence` (fitted orders), `gradcheck`, `gradient_accuracy`, the
+gradient-variance study (`rollout_cost`, `gradient_estimators`, `chaos`,
+`gradient_variance`), `figures`, `report` (a study's files and tables) and `recording`,
+the one writer of CSV, JSON records and figures, which `benchmarks/` uses too.
+
 Needs the `study` extra (SciPy for the reference; matplotlib for plots; tqdm for the
 progress bar): `pip install 'lerax_like[study]'`.
 """
@@ -19,6 +27,13 @@ from .reference import (
     dense_reference_trajectories as dense_reference_trajectories,
     reference_trajectories as reference_trajectories,
 )
+from .recording import (
+    environment_record as environment_record,
+    fixed_width_table as fixed_width_table,
+    matplotlib_available as matplotlib_available,
+    pyplot as pyplot,
+    write_record as write_record,
+)
 from .report import (
     CSV_COLUMNS as CSV_COLUMNS,
     GRADIENT_CSV_COLUMNS as GRADIENT_CSV_COLUMNS,
@@ -33,6 +48,7 @@ from .report import (
     write_json as write_json,
     write_study as write_study,
 )
+from .verdict import group_settings as group_settings, timing_unresolved as timing_unresolved
 from .rollout_check import preset_rollouts as preset_rollouts
 from .scenes import SCENES as SCENES, make_scene as make_scene, reference_method as reference_method
 from .study import (
