@@ -41,6 +41,7 @@ within the step, `inf` when none).
 """
 
 from collections.abc import Callable, Sequence
+from typing import final
 
 import diffrax
 import equinox as eqx
@@ -55,6 +56,7 @@ from .physics import AbstractDynamics
 from .physics.contact import AbstractContact, AbstractImpulseContact, with_coordinates
 
 
+@final
 class GrazingGuardController(GuardedPIDController):
     """A `PIDController` that also rejects a trial step over which a gap dips below zero and back.
 
@@ -97,6 +99,7 @@ def _hermite_dip(g0, g1, m0, m1):
     return s, h00 * g0 + h10 * m0 + h01 * g1 + h11 * m1
 
 
+@final
 class _Surfaces(eqx.Module):
     """The scene's contacts seen as one list of surfaces: gaps, rates, maps, rest."""
 
