@@ -97,6 +97,7 @@ BENCHMARKS = {
         Benchmark("ppo_baseline", "PPO (Stable-Baselines3) on the policy-learning task", (_SB3,)),
         Benchmark("jax_rl", "rejax's PPO on gymnax's CartPole and on lerax_like.gymnax's (euler, rk4, tsit5): time and return", (_GYMNAX, _REJAX)),
         Benchmark("sb3_vector", "PPO on lerax_like.sb3.make_vec_env against SB3's make_vec_env; the VecEnvs' speed", (_SB3,)),
+        Benchmark("contact", "located walls against penalty end stops: throughput and accuracy against SciPy", (_STUDY, _PLOTS)),
         Benchmark(
             "gym_before_after", "the vector env's and the SB3 VecEnv's speed against an older commit's, interleaved",
             (_SB3,),

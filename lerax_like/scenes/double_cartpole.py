@@ -8,6 +8,7 @@ from .._types import Array, BoolScalar, Input, Key, Scalar
 from ..env import EnvState, dynamics, episode_limit, integrator, time_step
 from ..integrate import Integrator
 from ..physics.chain import CartChainDynamics
+from ..physics.contact import Walls
 from ..physics.forces import EndStops, JointDamping
 from ._unit_action import AbstractUnitActionEnv
 
@@ -61,18 +62,21 @@ class DoubleCartPole(AbstractUnitActionEnv):
     `solver` (a preset name or a diffrax solver; default "rk4") with
     `stepsize_controller`, `max_episode_steps`. Add-ons (absent unless given, see
     `lerax_like.physics.forces`): `joint_damping` (every joint's damper acts on the rate
-    of its two neighbours, the cart being the first pole's), `end_stop_stiffness`,
-    `end_stop_damping`, `track_limit`.
+    of its two neighbours, the cart being the first pole's); the rail's ends at
+    `track_limit`, either as walls located as events (`restitution`, with
+    `min_rebound_speed` and `max_events`: an impulse-consistent impact, both poles' rates
+    jump) or as penalty end stops (`end_stop_stiffness`, `end_stop_damping`), as `CartPole`.
     """
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
-    addons: ClassVar[tuple[type, ...]] = (JointDamping, EndStops)
+    addons: ClassVar[tuple[type, ...]] = (JointDamping, EndStops, Walls)
     action_size: ClassVar[int] = 1
 
     task: Literal["balance", "swing_up"] = option("balance", ("balance", "swing_up"))
     dynamics: CartChainDynamics = dynamics(CartChainDynamics)
     integrator: Integrator = integrator("rk4")
     forces: tuple = ()
+    contacts: tuple = ()
     force_mag: Scalar = parameter(20.0, POSITIVE)
     theta_threshold_radians: Scalar = parameter(12 * 2 * math.pi / 360, POSITIVE_OR_INF)
     x_threshold: Scalar = parameter(check=POSITIVE_OR_INF, default_from=_track_default)
