@@ -21,6 +21,7 @@ import jax.numpy as jnp
 import jax.random as jr
 
 from ._fields import POSITIVE, assign_fields, concrete, parameter
+from ._addons import gather_addons
 from ._random import uniform
 from ._types import Array, BoolScalar, Float, Input, IntScalar, Key, Scalar, State
 from .integrate import Integrator, make_integrator
@@ -131,9 +132,10 @@ class AbstractEnv(eqx.Module):
       Gymnasium env.
     - `aliases`: other names its keywords go by (`("reward", "reward_kind")`; Gymnasium's
       names, such as Pendulum's `g`).
-    - `addons`: the generalised-force add-ons it accepts (`JointDamping`, `EndStops`);
-      a scene that accepts any holds them in a field `forces` (empty by default, so that
-      a scene built without them carries and computes none of it).
+    - `addons`: the add-ons it accepts: generalised forces (`JointDamping`, `EndStops`),
+      held in a field `forces`, and contacts (`Walls`, `lerax_like.physics.contact`),
+      held in a field `contacts` (both empty by default, so that a scene built without
+      them carries and computes none of it).
 
     Whether a scene clips or wraps its state is not declared but read off: it overrides
     `project` (`projects_state`).
@@ -168,8 +170,10 @@ class AbstractEnv(eqx.Module):
         fields = {field.name: field for field in dataclasses.fields(cls)}
         _gather_dynamics(cls, fields, keywords)
         _gather_integrator(fields, keywords)
-        _gather_addons(cls, keywords)
+        gather_addons(cls, keywords)
         assign_fields(self, keywords)
+        for contact in getattr(self, "contacts", ()):
+            contact.check(self.dynamics)
 
     # -- what a scene provides ---------------------------------------------------------
 
@@ -213,7 +217,7 @@ class AbstractEnv(eqx.Module):
     @property
     def physics(self) -> AbstractDynamics:
         """What a step integrates: `dynamics`, with the scene's add-on forces if it has any."""
-        if not self.addons or not self.forces:
+        if not getattr(self, "forces", ()):
             return self.dynamics
         from .physics.forces import ForcedDynamics
 
@@ -258,12 +262,26 @@ class AbstractEnv(eqx.Module):
         The end state is projected by `project` (if the scene overrides it); with
         `SemiImplicitEuler`, the state after the velocity update is projected too.
 
+        A scene with contacts (a field `contacts` of `lerax_like.physics.contact` add-ons)
+        is integrated segment by segment with its impacts located as events
+        (`lerax_like.hybrid`); its info also holds `impacts` and `first_impact_time`.
+
         The info holds `solver_ok`, `solver_steps` and `solver_rejected_steps`. A failed
         solve (non-finite state, exhausted step budget) keeps the pre-step state, so that
         nothing non-finite leaves the env. The studies call this directly, with inputs an
         action cannot express (a zero force on `CartPole`).
         """
         physics = self.physics
+        contacts = getattr(self, "contacts", ())
+        if contacts:
+            from .hybrid import integrate_with_contacts
+
+            y, info = integrate_with_contacts(
+                self.integrator, physics, self.dynamics, contacts, state.y, u, self.dt,
+                projection=self.project if self.projects_state() else None,
+            )
+            y = jnp.where(info["solver_ok"], y, state.y)
+            return EnvState(y=y, steps=state.steps + 1), info
         y, info = self.integrator.integrate(
             physics.vector_field,
             state.y,
@@ -421,18 +439,6 @@ def _gather_integrator(fields, keywords) -> None:
         raise TypeError(f"give either integrator= or solver settings ({', '.join(settings)}), not both")
     settings.setdefault("solver", fields["integrator"].metadata.get("solver", "euler"))
     keywords["integrator"] = make_integrator(settings.pop("solver"), **settings)
-
-
-def _gather_addons(cls, keywords) -> None:
-    """Build the add-ons whose parameters are given flat (`joint_damping=0.5`) into `forces`."""
-    forces = list(keywords.pop("forces", ()))
-    for addon in cls.addons:
-        names = {f.name for f in dataclasses.fields(addon)}
-        given = {name: keywords.pop(name) for name in list(keywords) if name in names}
-        if given:
-            forces.append(addon(**given))
-    if forces:
-        keywords["forces"] = tuple(forces)
 
 
 def rollout(

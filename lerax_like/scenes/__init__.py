@@ -24,6 +24,7 @@ _REGISTERED = (
     "double_cartpole:DoubleCartPole",
     "n_link_pendulum:NLinkPendulum",
     "planar_quadrotor:PlanarQuadrotor",
+    "bouncing_ball:BouncingBall",
 )
 
 

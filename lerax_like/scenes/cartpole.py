@@ -9,6 +9,7 @@ from .._types import Array, BoolScalar, Input, Key, Scalar
 from ..env import AbstractEnv, EnvState, GymnasiumSpec, dynamics, episode_limit, integrator, time_step
 from ..integrate import Integrator
 from ..physics import CartPoleDynamics
+from ..physics.contact import Walls
 from ..physics.forces import EndStops, JointDamping
 from ..spaces import Box, Discrete
 
@@ -20,7 +21,7 @@ class AbstractCartPole(AbstractEnv):
     """What the discrete and continuous cart-poles share: physics, add-ons, start, observation, end."""
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
-    addons: ClassVar[tuple[type, ...]] = (JointDamping, EndStops)
+    addons: ClassVar[tuple[type, ...]] = (JointDamping, EndStops, Walls)
 
     dynamics: eqx.AbstractVar[CartPoleDynamics]
     force_mag: eqx.AbstractVar[Scalar]
@@ -115,6 +116,7 @@ class CartPole(AbstractCartPole):
     dynamics: CartPoleDynamics = dynamics(CartPoleDynamics)
     integrator: Integrator = integrator("euler")
     forces: tuple = ()
+    contacts: tuple = ()
     force_mag: Scalar = parameter(10.0, POSITIVE)
     theta_threshold_radians: Scalar = parameter(_TWELVE_DEGREES, POSITIVE_OR_INF)
     x_threshold: Scalar = parameter(2.4, POSITIVE_OR_INF)
@@ -177,6 +179,7 @@ class CartPoleContinuous(AbstractCartPole):
     dynamics: CartPoleDynamics = dynamics(CartPoleDynamics)
     integrator: Integrator = integrator("euler")
     forces: tuple = ()
+    contacts: tuple = ()
     force_mag: Scalar = parameter(10.0, POSITIVE)
     theta_threshold_radians: Scalar = parameter(_TWELVE_DEGREES, POSITIVE_OR_INF)
     x_threshold: Scalar = parameter(2.4, POSITIVE_OR_INF)

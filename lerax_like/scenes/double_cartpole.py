@@ -8,6 +8,7 @@ from .._types import Array, BoolScalar, Input, Key, Scalar
 from ..env import AbstractEnv, EnvState, dynamics, episode_limit, integrator, time_step
 from ..integrate import Integrator
 from ..physics.chain import CartChainDynamics
+from ..physics.contact import Walls
 from ..physics.forces import EndStops, JointDamping
 from ..spaces import Box
 
@@ -66,12 +67,13 @@ class DoubleCartPole(AbstractEnv):
     """
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
-    addons: ClassVar[tuple[type, ...]] = (JointDamping, EndStops)
+    addons: ClassVar[tuple[type, ...]] = (JointDamping, EndStops, Walls)
 
     task: Literal["balance", "swing_up"] = option("balance", ("balance", "swing_up"))
     dynamics: CartChainDynamics = dynamics(CartChainDynamics)
     integrator: Integrator = integrator("rk4")
     forces: tuple = ()
+    contacts: tuple = ()
     force_mag: Scalar = parameter(20.0, POSITIVE)
     theta_threshold_radians: Scalar = parameter(12 * 2 * math.pi / 360, POSITIVE_OR_INF)
     x_threshold: Scalar = parameter(check=POSITIVE_OR_INF, default_from=_track_default)

@@ -1,0 +1,41 @@
+"""Scene add-ons given flat: generalised forces and contacts built from their keywords."""
+
+import dataclasses
+
+from .physics.contact import AbstractContact
+
+
+def gather_addons(cls, keywords) -> None:
+    """Build the add-ons whose parameters are given flat (`joint_damping=0.5`) into `forces` and `contacts`.
+
+    An add-on is selected by a keyword only it takes (`end_stop_stiffness` selects the penalty
+    `EndStops`, `restitution` the located `Walls`); a keyword several take (`track_limit`) goes
+    to the selected one, or to the first that takes it when none is selected. Two selected
+    add-ons that share a keyword are two models of one thing, and are refused.
+    """
+    addons = {"forces": list(keywords.pop("forces", ())), "contacts": list(keywords.pop("contacts", ()))}
+    names = {addon: {f.name for f in dataclasses.fields(addon)} for addon in cls.addons}
+    shared = {name for addon in cls.addons for name in names[addon] if sum(name in n for n in names.values()) > 1}
+    selected = [addon for addon in cls.addons if (names[addon] - shared) & set(keywords)]
+    if not selected:
+        selected = [addon for addon in cls.addons if names[addon] & set(keywords)][:1]
+    for i, first in enumerate(selected):
+        for second in selected[i + 1 :]:
+            if names[first] & names[second]:
+                raise ValueError(
+                    f"{cls.__name__}: give the keywords of either {first.__name__} "
+                    f"({', '.join(sorted(names[first] - shared))}) or {second.__name__} "
+                    f"({', '.join(sorted(names[second] - shared))}), not both: they model the same contact"
+                )
+    for addon in selected:
+        given = {name: keywords[name] for name in names[addon] if name in keywords}
+        addons["contacts" if issubclass(addon, AbstractContact) else "forces"].append(addon(**given))
+    for addon in selected:
+        for name in names[addon]:
+            keywords.pop(name, None)
+    for field, values in addons.items():
+        if values:
+            keywords[field] = tuple(values)
+
+
+__all__ = ["gather_addons"]

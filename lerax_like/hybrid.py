@@ -1,0 +1,308 @@
+"""One env step of a scene with contacts: integrate segment by segment, impacts located as events.
+
+`integrate_with_contacts` integrates over `[0, dt]` with the scene's `Integrator` (its solver,
+step-size controller, step budget and adjoint) up to the first located zero of a contact's gap
+(a `diffrax.Event` with a real-valued condition, located by bisection), applies the contact's
+map there and goes on from that time, until `dt`. `AbstractEnv.evolve` calls it when the scene
+has contacts (`lerax_like.physics.contact`). Every trap of a hybrid solve is handled here:
+
+- A state just after an impact sits on the surface (gap about 0, either sign): diffrax's sign
+  test would miss a return within one step (a cart pressed into a wall by its controller ended
+  2.9 m past it). So before every segment the state is checked for contact (touching, and
+  moving in: an impact, whatever happened before), and the positions are re-placed just off
+  the surface (a gap of 64 machine epsilons, scaled by the coordinates) so that the next
+  crossing is a clean sign change.
+- An adaptive step longer than a short touch steps over it (a sign change and back within one
+  step). Under a `PIDController` each trial step is checked: from the gaps and their rates at
+  both ends, the cubic Hermite interpolant of each gap; a step over which it dips below zero is
+  rejected and retried up to the dip's lowest point, where the crossing shows. Constant-step
+  solvers take the steps they are given: choose `substeps` small enough for the motion.
+- Located by `optimistix.Bisection` at a tolerance of a few machine epsilons in time, with a
+  fixed direction (`flip=True`: the gap decreases through the event). Newton, started from the
+  step's end, heads for a root outside the step near a grazing contact and fails; a looser
+  tolerance (1e-12) makes parameter gradients noisy at 1e-4.
+- Coming to rest (a Zeno sequence of ever shorter bounces) ends by the contact's rule
+  (`AbstractImpulseContact.min_rebound_speed`): a slower rebound is plastic and the surface
+  becomes a constraint, whose force is computed from the dynamics; the constraint is released
+  by a located event when that force reaches zero.
+- At most `max_events` impacts and releases per env step (the contacts' largest). A step
+  that needs more, a segment that fails, or a root that cannot be located, is a failed step
+  (`info["solver_ok"]` False; the env keeps the pre-step state and pays the worst reward).
+
+Gradients: the event time is differentiated implicitly (diffrax), so a gradient through an
+impact is the derivative of the hybrid flow, the saltation correction included. It grows like
+`1 / v_n` near a grazing contact (normal speed `v_n -> 0`): true, not a bug. Reverse mode
+(`RecursiveCheckpointAdjoint`, the default) and forward mode (`ForwardMode`, for `jax.jacfwd`)
+work; `BacksolveAdjoint` cannot pass events and is refused by name.
+
+The info holds `solver_ok`, `solver_steps`, `solver_rejected_steps` (summed over segments),
+`impacts` (impacts applied in this step) and `first_impact_time` (time of the first one
+within the step, `inf` when none).
+"""
+
+from collections.abc import Callable, Sequence
+
+import diffrax
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import optimistix
+
+from ._types import Array, Bool, Float, Input, ScalarLike, State
+from .integrate import GuardedPIDController, Integrator, ProjectedODETerm, SemiImplicitEuler
+from .physics import AbstractDynamics
+from .physics.contact import AbstractContact, AbstractImpulseContact, with_coordinates
+
+
+class GrazingGuardController(GuardedPIDController):
+    """A `PIDController` that also rejects a trial step over which a gap dips below zero and back.
+
+    `guard(y0, y1, step, args)` says where, as a fraction of the step, the cubic Hermite
+    interpolant of some gap dips below zero with both ends above it (1 where none does);
+    the step is then retried up to there, where the event's sign change shows.
+    """
+
+    guard: Callable | None = None
+
+    def adapt_step_size(self, t0, t1, y0, y1_candidate, args, y_error, error_order, controller_state):
+        keep, next_t0, next_t1, made_jump, state, result = super().adapt_step_size(
+            t0, t1, y0, y1_candidate, args, y_error, error_order, controller_state
+        )
+        fraction = self.guard(y0, y1_candidate, t1 - t0, args)
+        dip = fraction < 1
+        keep = keep & ~dip
+        next_t0 = jnp.where(dip, t0, next_t0)
+        next_t1 = jnp.where(dip, t0 + fraction * (t1 - t0), next_t1)
+        state = jax.tree.map(lambda new, old: jnp.where(dip, old, new), state, controller_state)
+        return keep, next_t0, next_t1, made_jump, state, result
+
+
+def _hermite_dip(g0, g1, m0, m1):
+    """Where in `(0, 1)` the cubic Hermite `p` (values `g0`, `g1`, slopes `m0`, `m1`) is lowest, and `p` there.
+
+    Only a minimum inside the step matters (`m0 < 0 < m1`): `p'(s) = a s^2 + b s + m0`.
+    """
+    a = 6 * g0 + 3 * m0 - 6 * g1 + 3 * m1
+    b = -6 * g0 - 4 * m0 + 6 * g1 - 2 * m1
+    # The root where p' turns from negative to positive; linear when a = 0.
+    discriminant = jnp.maximum(b**2 - 4 * a * m0, 0.0)
+    safe_a = jnp.where(a == 0, 1.0, a)
+    quadratic = (-b + jnp.sign(safe_a) * jnp.sqrt(discriminant)) / (2 * safe_a)
+    linear = -m0 / jnp.where(b == 0, 1.0, b)
+    s = jnp.clip(jnp.where(a == 0, linear, quadratic), 0.0, 1.0)
+    h00, h10, h01, h11 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s, -2 * s**3 + 3 * s**2, s**3 - s**2
+    return s, h00 * g0 + h10 * m0 + h01 * g1 + h11 * m1
+
+
+class _Surfaces(eqx.Module):
+    """The scene's contacts seen as one list of surfaces: gaps, rates, maps, rest."""
+
+    physics: AbstractDynamics
+    dynamics: AbstractDynamics
+    contacts: tuple[AbstractContact, ...]
+
+    def gaps(self, y: State) -> Float[Array, " k"]:
+        return jnp.concatenate([contact.gaps(self.dynamics, y) for contact in self.contacts])
+
+    def sizes(self, y: State) -> list[int]:
+        return [jax.eval_shape(lambda z: contact.gaps(self.dynamics, z), y).shape[0] for contact in self.contacts]
+
+    def vector_field(self, t: ScalarLike, y: State, args) -> State:
+        """The physics, with the resting surfaces' constraint forces added."""
+        u, resting = args
+        derivative = self.physics.vector_field(t, y, u)
+        start = 0
+        for contact, size in zip(self.contacts, self.sizes(y)):
+            if isinstance(contact, AbstractImpulseContact):
+                mask = resting[start : start + size]
+                _, acceleration = self.dynamics.coordinates(derivative)
+                _, change = contact.resting_force(self.dynamics, y, acceleration, mask)
+                derivative = with_coordinates(self.dynamics, derivative, velocities=acceleration + change)
+            start += size
+        return derivative
+
+    def forces(self, y: State, u: Input, resting: Bool[Array, " k"]) -> Float[Array, " k"]:
+        """The resting surfaces' contact forces (0 for the others)."""
+        derivative = self.physics.vector_field(0.0, y, u)
+        _, acceleration = self.dynamics.coordinates(derivative)
+        forces, start = [], 0
+        for contact, size in zip(self.contacts, self.sizes(y)):
+            if isinstance(contact, AbstractImpulseContact):
+                force, _ = contact.resting_force(self.dynamics, y, acceleration, resting[start : start + size])
+            else:
+                force = jnp.zeros((size,), y.dtype)
+            forces.append(force)
+            start += size
+        return jnp.concatenate(forces)
+
+    def rates(self, t, y: State, args) -> tuple[Float[Array, " k"], Float[Array, " k"]]:
+        """The gaps and their time derivatives along the flow."""
+        return jax.jvp(self.gaps, (y,), (self.vector_field(t, y, args),))
+
+    def condition(self, t, y: State, args, **kwargs) -> ScalarLike:
+        """Positive between events: the free surfaces' gaps and the resting ones' forces."""
+        del t, kwargs
+        u, resting = args
+        value = jnp.where(resting, self.forces(y, u, resting), self.gaps(y))
+        return jnp.min(value)
+
+    def guard(self, y0: State, y1: State, step, args):
+        """The step fraction where a free gap's Hermite interpolant dips below zero (1 if none)."""
+        _, resting = args
+        g0, rate0 = self.rates(0.0, y0, args)
+        g1, rate1 = self.rates(0.0, y1, args)
+        s, lowest = _hermite_dip(g0, g1, step * rate0, step * rate1)
+        hidden = ~resting & (g0 > 0) & (g1 > 0) & (rate0 < 0) & (rate1 > 0) & (lowest < 0)
+        # The retried step ends at the dip's lowest point, a little past it if the lowest
+        # point sits at an end, so that it shrinks.
+        fraction = jnp.where(hidden, jnp.clip(s, 1e-3, 0.999), 1.0)
+        return jnp.min(fraction)
+
+    def settle(self, y: State, u: Input, resting_before: Bool[Array, " k"]):
+        """At a segment's start: impacts, rest and release, and the re-placement just off the surfaces.
+
+        Returns the state, the resting surfaces and the number of impacts applied.
+        """
+        del resting_before  # rest is read off the state: touching, at rest, and pushed
+        dtype = y.dtype
+        q, _ = self.dynamics.coordinates(y) if self._mechanical else (y, None)
+        offset = 64 * jnp.finfo(dtype).eps * (1 + jnp.max(jnp.abs(q)))
+        impacts = jnp.zeros((), dtype=int)
+        start = 0
+        sizes = self.sizes(y)
+        touching_all, candidates_all = [], []
+        for contact, size in zip(self.contacts, sizes):
+            for local in range(size):
+                gap = contact.gaps(self.dynamics, y)[local]
+                rate = jax.jvp(lambda z: contact.gaps(self.dynamics, z)[local], (y,), (self.physics.vector_field(0.0, y, u),))[1]
+                touching = gap <= 2 * offset
+                hit = touching & (rate < 0)
+                y = jnp.where(hit, contact.impact(self.dynamics, y, local), y)
+                impacts = impacts + hit.astype(int)
+                touching_all.append(touching)
+            start += size
+        touching = jnp.stack(touching_all)
+        # Rest: touching surfaces of impulse contacts whose normal speed is below the rebound
+        # threshold, held there if their force pushes.
+        start = 0
+        for contact, size in zip(self.contacts, sizes):
+            if isinstance(contact, AbstractImpulseContact):
+                speeds = contact.normal_speeds(self.dynamics, y)
+                for local in range(size):
+                    slow = touching[start + local] & (jnp.abs(speeds[local]) < contact.min_rebound_speed)
+                    candidates_all.append(slow)
+                    y = jnp.where(slow, contact.set_normal_speed(self.dynamics, y, local, 0.0), y)
+            else:
+                candidates_all.extend([jnp.asarray(False)] * size)
+            start += size
+        candidates = jnp.stack(candidates_all)
+        resting = candidates & (self.forces(y, u, candidates) > 0)
+        # Re-place impulse contacts' touching surfaces just off them (a Newton step on the
+        # positions along the gap's gradient: exact for flat surfaces).
+        start = 0
+        for contact, size in zip(self.contacts, sizes):
+            if isinstance(contact, AbstractImpulseContact):
+                for local in range(size):
+                    gap = contact.gaps(self.dynamics, y)[local]
+                    row = contact.jacobian(self.dynamics, y)[local]
+                    q, _ = self.dynamics.coordinates(y)
+                    moved = with_coordinates(self.dynamics, y, positions=q + (offset - gap) * row / (row @ row))
+                    y = jnp.where(touching[start + local], moved, y)
+            start += size
+        return y, resting, impacts
+
+    @property
+    def _mechanical(self) -> bool:
+        return any(isinstance(contact, AbstractImpulseContact) for contact in self.contacts)
+
+
+def integrate_with_contacts(
+    integrator: Integrator,
+    physics: AbstractDynamics,
+    dynamics: AbstractDynamics,
+    contacts: Sequence[AbstractContact],
+    y0: State,
+    u: Input,
+    dt: ScalarLike,
+    *,
+    projection: Callable[[State], State] | None = None,
+) -> tuple[State, dict[str, Array]]:
+    """Solve over `[0, dt]` from `y0` with the impacts of `contacts` located as events (module docstring).
+
+    `physics` is what is integrated (the dynamics with any force add-ons); `dynamics` the
+    scene's own physics module, whose `coordinates` and `energy` the contacts read.
+    """
+    adjoint = integrator.adjoint
+    if isinstance(adjoint, diffrax.BacksolveAdjoint):
+        raise ValueError(
+            "adjoint BacksolveAdjoint cannot differentiate through located events (diffrax refuses "
+            "events with it): use with_adjoint(env, 'checkpoint') (reverse mode) or 'forward' (jacfwd)"
+        )
+    surfaces = _Surfaces(physics=physics, dynamics=dynamics, contacts=tuple(contacts))
+    max_events = max(contact.max_events for contact in contacts)
+    dtype = y0.dtype
+    dt = jnp.asarray(dt, dtype=dtype)
+    solver = integrator.solver
+    if isinstance(solver, SemiImplicitEuler):
+        term = ProjectedODETerm(surfaces.vector_field, velocity_indices=physics.velocity_indices)
+    else:
+        term = diffrax.ODETerm(surfaces.vector_field)
+    controller = integrator.stepsize_controller
+    if type(controller) in (diffrax.PIDController, GuardedPIDController):
+        settings = {name: getattr(controller, name) for name in diffrax.PIDController.__dataclass_fields__}
+        controller = GrazingGuardController(**settings, guard=surfaces.guard)
+    dt0 = dt / integrator.substeps if isinstance(controller, diffrax.ConstantStepSize) else None
+    tolerance = 4 * float(jnp.finfo(dtype).eps)
+    event = diffrax.Event(
+        surfaces.condition,
+        root_finder=optimistix.Bisection(rtol=tolerance, atol=tolerance, flip=True),
+        direction=False,
+    )
+
+    def segment(carry, _):
+        y, t, resting, ok, steps, rejected, impacts, first = carry
+        done = t >= dt
+        settled, new_resting, hits = surfaces.settle(y, u, resting)
+        y = jnp.where(done, y, settled)
+        resting = jnp.where(done, resting, new_resting)
+        hits = jnp.where(done, 0, hits)
+        first = jnp.where((hits > 0) & (first == jnp.inf), t, first)
+        solution = diffrax.diffeqsolve(
+            term, solver, t0=t, t1=dt, dt0=dt0, y0=y, args=(u, resting), stepsize_controller=controller,
+            max_steps=integrator.max_steps, adjoint=adjoint, event=event, throw=False,
+        )
+        result = solution.result
+        solved = (result == diffrax.RESULTS.successful) | (result == diffrax.RESULTS.event_occurred)
+        accepted = solution.stats["num_accepted_steps"]
+        carry = (
+            solution.ys[-1],
+            jnp.where(done, dt, solution.ts[-1]),
+            resting,
+            ok & (done | solved),
+            steps + accepted,
+            rejected + solution.stats["num_steps"] - accepted,
+            impacts + hits,
+            first,
+        )
+        return carry, None
+
+    resting = jnp.zeros_like(surfaces.gaps(y0), dtype=bool)
+    zero = jnp.zeros((), dtype=int)
+    initial = (y0, jnp.zeros((), dtype), resting, jnp.asarray(True), zero, zero, zero, jnp.asarray(jnp.inf, dtype))
+    (y, t, _, ok, steps, rejected, impacts, first), _ = jax.lax.scan(segment, initial, None, length=max_events + 1)
+    finite = jnp.all(jnp.isfinite(y))
+    if projection is not None:
+        y = projection(y)
+    # Events left over when the budget ran out: the step did not reach dt.
+    ok = ok & (t >= dt) & finite & jnp.all(jnp.isfinite(y))
+    info = {
+        "solver_ok": ok,
+        "solver_steps": steps,
+        "solver_rejected_steps": rejected,
+        "impacts": impacts,
+        "first_impact_time": first,
+    }
+    return y, info
+
+
+__all__ = ["GrazingGuardController", "integrate_with_contacts"]

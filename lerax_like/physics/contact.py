@@ -1,0 +1,201 @@
+"""Contact as an add-on: surfaces `g(y) >= 0` that the solver locates, and the map at an impact.
+
+A physics module knows nothing of contact. What a scene adds on top, a floor, a wall, the
+ends of a cart's rail, the next spoke of a rimless wheel, is a contact add-on: real-valued
+conditions `g_i(y) >= 0` (the gaps; `g_i = 0` on surface `i`) and the map applied when the
+state reaches one of them moving in. The step (`lerax_like.hybrid`) integrates segment by
+segment, stops at the first located zero of a gap, applies the map and goes on; a scene
+built without contacts carries and computes none of it.
+
+- `AbstractContact`: any condition and any map, a scene's own (a heel strike that swaps
+  the stance leg, a switch of a non-mechanical mode). Subclasses implement `gaps` and
+  `impact`.
+- `AbstractImpulseContact`: the mechanical contact of rigid bodies. Its map is the
+  impulse-consistent one: the velocities jump by `M(q) dq_dot = J^T lambda` with
+  `J = dg/dq`, chosen so that `J q_dot+ = -e J q_dot-` (restitution `e` in [0, 1]) along
+  the contact normal, which is how a cart hitting a wall changes its pole's angular
+  velocity too. `M(q)` is read off the dynamics' energy (the Hessian of the kinetic
+  energy in the velocities), so any dynamics with `coordinates` and `energy` takes it.
+  Below `min_rebound_speed` the contact comes to rest: the impact is plastic and the
+  surface becomes a constraint whose force holds the state on it, released when that
+  force reaches zero (the rule that ends a ball's Zeno sequence of bounces).
+
+Gradients through an impact are the true derivatives of the hybrid flow, event time
+included; near a grazing contact (normal speed `v_n -> 0`) they grow like `1 / v_n`:
+the impact time `t*` moves by `-dg / v_n` when the trajectory moves by `dg`. That is the
+physics of a trajectory that barely touches, not a numerical failure.
+"""
+
+import abc
+from typing import ClassVar, final
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .._fields import POSITIVE, AbstractParametrised, Range, option, parameter
+from .._types import Array, Bool, Float, Scalar, State
+from ._base import AbstractDynamics
+
+
+RESTITUTION = Range(
+    "finite and in [0, 1] (allowed range [0, 1])",
+    lambda a: bool(np.all(np.isfinite(a)) and np.all(a >= 0) and np.all(a <= 1)),
+)
+
+
+class AbstractContact(AbstractParametrised):
+    """Contact surfaces `g_i(y) >= 0` and the map applied at an impact on one of them.
+
+    Subclasses implement `gaps` (one real value per surface: positive off the surface,
+    zero on it, negative past it) and `impact` (the state just after an impact on one
+    surface). `max_events` (static) bounds the impacts and releases located in one env
+    step: a step that needs more is a failed step (`info["solver_ok"]` False), never
+    silently cut short. The step checks `gaps` where a step of an adaptive solver could
+    hide a touch and return (`lerax_like.hybrid`), from `gaps` and their rates.
+    """
+
+    max_events: int = option(16, None)
+
+    @abc.abstractmethod
+    def gaps(self, dynamics: AbstractDynamics, y: State) -> Float[Array, " k"]:
+        """The gap to each surface in the state `y` (>= 0 admissible)."""
+        raise NotImplementedError
+
+    @abc.abstractmethod
+    def impact(self, dynamics: AbstractDynamics, y: State, surface: int) -> State:
+        """The state just after an impact on `surface` (a Python int) in the state `y`."""
+        raise NotImplementedError
+
+    def check(self, dynamics: AbstractDynamics) -> None:
+        """Refuse, naming both, dynamics this contact cannot act on (nothing by default)."""
+        del dynamics
+
+    def __check_init__(self):
+        if isinstance(self.max_events, bool) or not isinstance(self.max_events, (int, np.integer)) or self.max_events < 1:
+            raise ValueError(f"max_events must be a positive integer, got {self.max_events!r}")
+
+
+class AbstractImpulseContact(AbstractContact):
+    """Rigid-body contact: an impulse-consistent velocity jump, and rest below a rebound speed.
+
+    Subclasses implement `gaps` as functions of the positions `q` only (a surface of the
+    configuration space) and declare `restitution` and `min_rebound_speed`. The dynamics
+    must provide `coordinates(y) -> (q, q_dot)` (a selection of the state's components)
+    and `energy(y)`, kinetic plus potential, the kinetic part `q_dot^T M(q) q_dot / 2`.
+    """
+
+    restitution: eqx.AbstractVar[Scalar]
+    min_rebound_speed: eqx.AbstractVar[Scalar]
+
+    def check(self, dynamics: AbstractDynamics) -> None:
+        missing = [name for name in ("coordinates", "energy") if not hasattr(dynamics, name)]
+        if missing:
+            raise ValueError(
+                f"{type(self).__name__} needs dynamics with {' and '.join(missing)} (generalised "
+                f"coordinates and energy, for the mass matrix), and {type(dynamics).__name__} has none"
+            )
+
+    def impact(self, dynamics: AbstractDynamics, y: State, surface: int) -> State:
+        """Reverse the normal velocity on `surface` times `restitution`, impulse-consistently.
+
+        A rebound slower than `min_rebound_speed` is made zero (a plastic impact): the
+        contact then rests (see `resting_force`).
+        """
+        normal_speed = self.normal_speeds(dynamics, y)[surface]
+        rebound = -self.restitution * normal_speed
+        rebound = jnp.where(jnp.abs(rebound) < self.min_rebound_speed, jnp.zeros_like(rebound), rebound)
+        return self.set_normal_speed(dynamics, y, surface, rebound)
+
+    # -- mechanics read off the dynamics --------------------------------------------------
+
+    def jacobian(self, dynamics, y: State) -> Float[Array, "k q"]:
+        """`J = dg/dq`, one row per surface."""
+        q, _ = dynamics.coordinates(y)
+        return jax.jacfwd(lambda p: self.gaps(dynamics, with_coordinates(dynamics, y, positions=p)))(q)
+
+    def normal_speeds(self, dynamics, y: State) -> Float[Array, " k"]:
+        """`J q_dot`: the rate of each gap (negative: moving into the surface)."""
+        _, q_dot = dynamics.coordinates(y)
+        return self.jacobian(dynamics, y) @ q_dot
+
+    def set_normal_speed(self, dynamics, y: State, surface: int, speed: Scalar) -> State:
+        """`y` with `J_i q_dot` set to `speed` by an impulse along `J_i^T`: `M dq_dot = J_i^T lambda`."""
+        _, q_dot = dynamics.coordinates(y)
+        row = self.jacobian(dynamics, y)[surface]
+        direction = jnp.linalg.solve(mass_matrix(dynamics, y), row)  # M^-1 J^T
+        impulse = (speed - row @ q_dot) / (row @ direction)
+        return with_coordinates(dynamics, y, velocities=q_dot + impulse * direction)
+
+    def resting_force(
+        self, dynamics, y: State, acceleration: Float[Array, " q"], resting: Bool[Array, " k"]
+    ) -> tuple[Float[Array, " k"], Float[Array, " q"]]:
+        """The contact forces `lambda` that hold the `resting` surfaces (others: 0), and `M^-1 J^T lambda`.
+
+        With `acceleration` the free `q''`, they make `d2g_i/dt2 = J_i q'' + q_dot^T H_i q_dot`
+        zero for every resting surface `i` (`H_i` the Hessian of `g_i`): a surface
+        pushes (`lambda_i > 0`) for as long as it holds.
+        """
+        q, q_dot = dynamics.coordinates(y)
+        jacobian = self.jacobian(dynamics, y)
+        gaps_of = lambda p: self.gaps(dynamics, with_coordinates(dynamics, y, positions=p))
+        curvature = jax.jvp(lambda p: jax.jacfwd(gaps_of)(p) @ q_dot, (q,), (q_dot,))[1]
+        masked = jacobian * resting[:, None]
+        inverse_mass_jacobian = jnp.linalg.solve(mass_matrix(dynamics, y), masked.T)  # (q, k)
+        # Free surfaces get a unit diagonal, so that the system stays regular and their force is 0.
+        delassus = masked @ inverse_mass_jacobian + jnp.diag(jnp.where(resting, 0.0, 1.0))
+        force = jnp.linalg.solve(delassus, -jnp.where(resting, jacobian @ acceleration + curvature, 0.0))
+        return force, inverse_mass_jacobian @ force
+
+
+def with_coordinates(dynamics, y: State, *, positions=None, velocities=None) -> State:
+    """`y` with its generalised positions and/or velocities replaced, whatever the state's layout.
+
+    `coordinates` selects components of `y`, a linear map whose transpose puts them back.
+    """
+    q, q_dot = dynamics.coordinates(y)
+    change = (jnp.zeros_like(q) if positions is None else positions - q,
+              jnp.zeros_like(q_dot) if velocities is None else velocities - q_dot)
+    (back,) = jax.linear_transpose(dynamics.coordinates, y)(change)
+    return y + back
+
+
+def mass_matrix(dynamics, y: State) -> Float[Array, "q q"]:
+    """`M(q)`: the Hessian of the energy in the generalised velocities (the potential has none)."""
+    _, q_dot = dynamics.coordinates(y)
+    return jax.hessian(lambda v: dynamics.energy(with_coordinates(dynamics, y, velocities=v)))(q_dot)
+
+
+@final
+class Walls(AbstractImpulseContact):
+    """Rigid walls at the ends of a cart's rail, `x = -track_limit` and `x = +track_limit`.
+
+    The cart rebounds with `restitution` `e` times its normal speed, impulse-consistently
+    with the whole chain's mass matrix: a pole's angular velocity jumps too. Below
+    `min_rebound_speed` (m/s) the cart comes to rest against the wall until the wall's
+    force would pull. The located alternative to the penalty `EndStops`.
+    """
+
+    restitution: Scalar = parameter(check=RESTITUTION)
+    track_limit: Scalar = parameter(2.4, POSITIVE)
+    min_rebound_speed: Scalar = parameter(1e-3, POSITIVE)
+
+    def gaps(self, dynamics, y: State) -> Float[Array, " 2"]:
+        x = dynamics.coordinates(y)[0][0]
+        return jnp.stack([x + self.track_limit, self.track_limit - x])
+
+    def check(self, dynamics: AbstractDynamics) -> None:
+        super().check(dynamics)
+        if not getattr(dynamics, "has_cart", False):
+            raise ValueError(f"Walls stop a cart's position, and {type(dynamics).__name__} has no cart")
+
+
+__all__ = [
+    "RESTITUTION",
+    "AbstractContact",
+    "AbstractImpulseContact",
+    "Walls",
+    "mass_matrix",
+    "with_coordinates",
+]
