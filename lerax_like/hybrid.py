@@ -85,9 +85,12 @@ def _hermite_dip(g0, g1, m0, m1):
     a = 6 * g0 + 3 * m0 - 6 * g1 + 3 * m1
     b = -6 * g0 - 4 * m0 + 6 * g1 - 2 * m1
     # The root where p' turns from negative to positive; linear when a = 0.
-    discriminant = jnp.maximum(b**2 - 4 * a * m0, 0.0)
+    discriminant = b**2 - 4 * a * m0
+    # Where-safe: sqrt's derivative at a clamped 0 is inf, and inf * 0 a NaN gradient
+    # through the step-size controller (a rimless wheel's first env step).
+    root = jnp.where(discriminant > 0, jnp.sqrt(jnp.where(discriminant > 0, discriminant, 1.0)), 0.0)
     safe_a = jnp.where(a == 0, 1.0, a)
-    quadratic = (-b + jnp.sign(safe_a) * jnp.sqrt(discriminant)) / (2 * safe_a)
+    quadratic = (-b + jnp.sign(safe_a) * root) / (2 * safe_a)
     linear = -m0 / jnp.where(b == 0, 1.0, b)
     s = jnp.clip(jnp.where(a == 0, linear, quadratic), 0.0, 1.0)
     h00, h10, h01, h11 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s, -2 * s**3 + 3 * s**2, s**3 - s**2
