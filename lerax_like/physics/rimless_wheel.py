@@ -1,11 +1,12 @@
-from typing import ClassVar
+from typing import ClassVar, final
 
 import jax.numpy as jnp
 import numpy as np
 
-from .._fields import POSITIVE, Range, parameter
-from .._types import BoolScalar, Input, Scalar, ScalarLike, State
+from .._fields import POSITIVE, Range, option, parameter
+from .._types import Array, BoolScalar, Float, Input, Scalar, ScalarLike, State
 from ._base import AbstractDynamics
+from .contact import AbstractContact
 
 
 # Two neighbouring spokes must not both be downhill of the hub, or no stance exists.
@@ -19,6 +20,7 @@ SLOPE = Range(
 )
 
 
+@final
 class RimlessWheelDynamics(AbstractDynamics):
     """A rimless wheel on a slope: the stance phase, its contact surfaces and its impact map.
 
@@ -40,6 +42,11 @@ class RimlessWheelDynamics(AbstractDynamics):
 
     The passive wheel (`u = 0`) that passes over the top rolls onto a limit cycle whose
     post-impact speed is `limit_cycle_speed` (see there).
+
+    At rest the wheel stands on two spokes: labelled `theta = slope - alpha`,
+    `theta_dot = 0`, held there by the rear spoke while gravity and torque press it
+    uphill (`theta'' < 0`), released as soon as they do not. `SpokeContact` leaves a wheel
+    slower than its `min_rebound_speed` after an impact in that state.
     """
 
     velocity_indices: ClassVar[tuple[int, ...]] = (1,)
@@ -55,7 +62,10 @@ class RimlessWheelDynamics(AbstractDynamics):
         theta, theta_dot = y
         l = self.leg_length
         theta_acc = self.gravity / l * jnp.sin(theta) + u[0] / (self.mass * l**2)
-        return jnp.stack([theta_dot, theta_acc])
+        # Resting on two spokes: the rear spoke's reaction cancels what presses it in.
+        # Exact comparisons: `SpokeContact.impact` sets this state exactly.
+        resting = (theta == self.slope - self.spoke_half_angle) & (theta_dot == 0) & (theta_acc < 0)
+        return jnp.stack([theta_dot, jnp.where(resting, jnp.zeros_like(theta_acc), theta_acc)])
 
     def energy(self, y: State) -> Scalar:
         """Kinetic plus potential energy, the height measured from the stance foot.
@@ -117,3 +127,31 @@ class RimlessWheelDynamics(AbstractDynamics):
     def rolls_over_the_top(self) -> BoolScalar:
         """Whether the passive limit cycle exists: its speed carries the wheel over the top."""
         return self.limit_cycle_speed > self.speed_to_pass_the_top
+
+
+@final
+class SpokeContact(AbstractContact):
+    """The spokes of a `RimlessWheelDynamics` landing on the slope: a heel strike or a rear strike.
+
+    Gaps `[front_gap, rear_gap]` (radians); the impact swaps the stance spoke
+    (`heel_strike`, `rear_strike`), conserving the angular momentum about the new foot. A
+    wheel left slower than `min_rebound_speed` (rad/s) comes to rest on two spokes (the
+    state `[slope - alpha, 0]`, see `RimlessWheelDynamics`): a wheel rocking between two
+    spokes would otherwise strike without end, each impact a factor `cos(2 alpha)` slower
+    and sooner. `max_events` bounds the strikes of one env step (a failed step beyond).
+    """
+
+    min_rebound_speed: Scalar = parameter(1e-3, POSITIVE)
+    max_events: int = option(32, None)
+
+    def gaps(self, dynamics: RimlessWheelDynamics, y: State) -> Float[Array, " 2"]:
+        return jnp.stack([dynamics.front_gap(y), dynamics.rear_gap(y)])
+
+    def impact(self, dynamics: RimlessWheelDynamics, y: State, surface: int) -> State:
+        after = dynamics.heel_strike(y) if surface == 0 else dynamics.rear_strike(y)
+        rest = jnp.stack([dynamics.slope - dynamics.spoke_half_angle, jnp.zeros_like(after[1])])
+        return jnp.where(jnp.abs(after[1]) < self.min_rebound_speed, rest, after)
+
+    def check(self, dynamics) -> None:
+        if not isinstance(dynamics, RimlessWheelDynamics):
+            raise ValueError(f"SpokeContact lands a rimless wheel's spokes, and {type(dynamics).__name__} is none")

@@ -24,6 +24,7 @@ _REGISTERED = (
     "double_cartpole:DoubleCartPole",
     "n_link_pendulum:NLinkPendulum",
     "planar_quadrotor:PlanarQuadrotor",
+    "rimless_wheel:RimlessWheel",
     "bouncing_ball:BouncingBall",
 )
 
