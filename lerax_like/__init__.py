@@ -19,9 +19,10 @@ from .integrate import (
     has_error_estimate as has_error_estimate,
     make_integrator as make_integrator,
     register_solver as register_solver,
-    solver_from_spec as solver_from_spec,
+    solver_facts as solver_facts,
     unregister_solver as unregister_solver,
 )
+from .cli import solver_from_spec as solver_from_spec
 from .physics import (
     AbstractChainDynamics as AbstractChainDynamics,
     AbstractConservativeDynamics as AbstractConservativeDynamics,

@@ -8,6 +8,7 @@
 """
 
 import argparse
+import os
 import sys
 import time
 
@@ -21,12 +22,57 @@ SOLVER_HELP = (
 )
 
 
+def solver_from_spec(spec: str) -> "str | diffrax.AbstractSolver":  # noqa: F821 (diffrax is imported lazily)
+    """The solver a command line names: a preset name, or `module:attribute`.
+
+    `module:attribute` imports `module` (from `sys.path`: `PYTHONPATH`, and the current
+    directory, which the `lerax-like` command puts there) and takes `attribute`: a diffrax
+    solver instance, or a solver class built with no arguments (`diffrax:Bosh3`,
+    `my_methods:RALSTON3`). Returns the preset name (lower case) or the solver instance.
+    """
+    import importlib
+
+    import diffrax
+
+    from .integrate import SOLVERS
+
+    if not isinstance(spec, str) or not spec:
+        raise ValueError(f"solver must be a preset name or 'module:attribute', got {spec!r}")
+    if ":" not in spec:
+        return SOLVERS.find(spec).name
+    module_name, _, attribute = spec.partition(":")
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as error:
+        raise ValueError(f"solver {spec!r}: cannot import module {module_name!r} ({error})") from None
+    value = module
+    for part in attribute.split("."):
+        try:
+            value = getattr(value, part)
+        except AttributeError:
+            raise ValueError(f"solver {spec!r}: module {module_name!r} has no attribute {attribute!r}") from None
+    if isinstance(value, type) and issubclass(value, diffrax.AbstractSolver):
+        try:
+            value = value()
+        except TypeError as error:
+            raise ValueError(
+                f"solver {spec!r}: the class {value.__name__} cannot be built with no arguments ({error}); "
+                "name an instance instead"
+            ) from None
+    if not isinstance(value, diffrax.AbstractSolver):
+        raise ValueError(f"solver {spec!r} names {value!r}, which is no diffrax solver (instance or class)")
+    return value
+
+
 def _solvers_from(arguments, command: str):
     """The solvers named by `--solver`, or None; a bad name is a usage error (exit 2)."""
     if not arguments.solver:
         return None
-    from .integrate import solver_from_spec
-
+    # `python -m lerax_like` puts the working directory on sys.path, but the `lerax-like`
+    # console script puts its own folder there instead: without this, `--solver
+    # mymethods:RALSTON3` run beside mymethods.py would not find it.
+    if os.getcwd() not in sys.path and "" not in sys.path:
+        sys.path.insert(0, os.getcwd())
     try:
         return [solver_from_spec(spec) for spec in arguments.solver]
     except ValueError as error:
@@ -194,7 +240,7 @@ def format_solver_table() -> str:
     """The solver presets with their orders, as `lerax-like solvers` prints them."""
     from .integrate import SOLVERS
 
-    header = ("name", "order", "stages", "f-evals/step", "kind", "error estimate", "default controller", "")
+    header = ("name", "order", "stages", "f-evals/step", "kind", "error estimate", "default controller", "description")
     lines = [header]
     for preset in SOLVERS.values():
         lines.append((

@@ -86,8 +86,7 @@ def _hermite_dip(g0, g1, m0, m1):
     b = -6 * g0 - 4 * m0 + 6 * g1 - 2 * m1
     # The root where p' turns from negative to positive; linear when a = 0.
     discriminant = b**2 - 4 * a * m0
-    # Where-safe: sqrt's derivative at a clamped 0 is inf, and inf * 0 a NaN gradient
-    # through the step-size controller (a rimless wheel's first env step).
+    # Safe in reverse mode: no infinite derivative of sqrt at 0 in a branch `where` drops.
     root = jnp.where(discriminant > 0, jnp.sqrt(jnp.where(discriminant > 0, discriminant, 1.0)), 0.0)
     safe_a = jnp.where(a == 0, 1.0, a)
     quadratic = (-b + jnp.sign(safe_a) * root) / (2 * safe_a)
@@ -161,7 +160,8 @@ class _Surfaces(eqx.Module):
         # The retried step ends at the dip's lowest point, a little past it if the lowest
         # point sits at an end, so that it shrinks.
         fraction = jnp.where(hidden, jnp.clip(s, 1e-3, 0.999), 1.0)
-        return jnp.min(fraction)
+        # A choice of step, as the controller's own: no gradient flows through it.
+        return jax.lax.stop_gradient(jnp.min(fraction))
 
     def settle(self, y: State, u: Input, resting_before: Bool[Array, " k"]):
         """At a segment's start: impacts, rest and release, and the re-placement just off the surfaces.

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 import lerax_like as ll
-from lerax_like.integrate import SOLVERS, describe_solver, solver_from_spec
+from lerax_like.cli import solver_from_spec
+from lerax_like.integrate import SOLVERS, describe_solver
 
 
 def _rotation(t, y, args):

@@ -32,7 +32,7 @@ import jax.random as jr
 import numpy as np
 
 from ..env import AbstractEnv, EnvState
-from ..integrate import Integrator, describe_solver, make_integrator
+from ..integrate import Integrator, describe_solver, make_integrator, solver_facts
 from ..spaces import Box, Discrete
 from .reference import dense_reference_trajectories
 from .scenes import SCENES, make_scene, reference_method
@@ -317,22 +317,13 @@ def _batched_trajectories(env: AbstractEnv, y0s, inputs):
 
 
 def evaluations_per_step(solver: diffrax.AbstractSolver) -> tuple[int, int, int] | None:
-    """`(per accepted step, per rejected step, once per solve)` vector-field evaluations.
-
-    Read from the Butcher tableau of an explicit solver: `s` stages per step, or, for a
-    first-same-as-last method (Tsit5, Dopri5), `s - 1` per accepted step (its first
-    stage is the last of the step before) plus one at the start of each solve. A
-    rejected step costs all `s` (diffrax 0.7 does not reuse the first stage after a
-    rejection: counted in tests/test_study.py). `None` for implicit solvers, whose
-    count depends on the root finder.
-    """
-    if isinstance(solver, diffrax.Euler):
-        return 1, 1, 0
-    tableau = getattr(solver, "tableau", None)
-    if not isinstance(solver, diffrax.AbstractERK) or not isinstance(tableau, diffrax.ButcherTableau):
+    """`(per accepted step, per rejected step, once per solve)` vector-field evaluations,
+    as `lerax_like.solver_facts` counts them; `None` for implicit solvers, whose count
+    depends on the root finder."""
+    facts = solver_facts(solver)
+    if facts.evaluations_per_step is None:
         return None
-    stages = len(tableau.c) + 1
-    return (stages - 1, stages, 1) if tableau.fsal else (stages, stages, 0)
+    return facts.evaluations_per_step, facts.evaluations_per_rejected_step, facts.evaluations_per_solve
 
 
 @eqx.filter_jit

@@ -141,10 +141,10 @@ class AbstractImpulseContact(AbstractContact):
         jacobian = self.jacobian(dynamics, y)
         gaps_of = lambda p: self.gaps(dynamics, with_coordinates(dynamics, y, positions=p))
         curvature = jax.jvp(lambda p: jax.jacfwd(gaps_of)(p) @ q_dot, (q,), (q_dot,))[1]
-        masked = jacobian * resting[:, None]
+        masked = jnp.where(resting[:, None], jacobian, 0.0)
         inverse_mass_jacobian = jnp.linalg.solve(mass_matrix(dynamics, y), masked.T)  # (q, k)
         # Free surfaces get a unit diagonal, so that the system stays regular and their force is 0.
-        delassus = masked @ inverse_mass_jacobian + jnp.diag(jnp.where(resting, 0.0, 1.0))
+        delassus = masked @ inverse_mass_jacobian + jnp.diag(jnp.where(resting, 0.0, 1.0).astype(y.dtype))
         force = jnp.linalg.solve(delassus, -jnp.where(resting, jacobian @ acceleration + curvature, 0.0))
         return force, inverse_mass_jacobian @ force
 

@@ -99,9 +99,19 @@ class CartPole(AbstractCartPole):
     `dt`, `integrator` or `solver` (a preset name or a diffrax solver) with
     `stepsize_controller`, `max_episode_steps`, `sutton_barto_reward` (False).
     Add-ons of real rigs, absent unless given (see `lerax_like.physics.forces`):
-    `joint_damping` (hinge friction, N m s/rad; 300 is very stiff), `end_stop_stiffness`,
-    `end_stop_damping` and `track_limit` (one-sided spring-dampers at `x = +-track_limit`,
-    stiffness up to 1e6 N/m; a contact; set `x_threshold=inf` to let the cart reach them).
+    `joint_damping` (hinge friction, N m s/rad; 300 is very stiff). The ends of the rail,
+    at `x = +-track_limit` (set `x_threshold=inf` to let the cart reach them), two ways:
+    - `restitution` (in [0, 1]) selects rigid walls located as events (`Walls`,
+      `lerax_like.physics.contact`): the solver stops at the impact time, reverses the
+      cart's speed times `restitution`, impulse-consistently (the pole's rate jumps too),
+      and goes on; with `min_rebound_speed` (below which the cart rests against the wall)
+      and `max_events` (impacts per step; more is a failed step). Exact impact times,
+      no penetration, gradients that match finite differences; use a solver of several
+      stages (`"tsit5"`, `"rk4"`): the impacts are located on its dense output.
+    - `end_stop_stiffness` (up to 1e6 N/m) with `end_stop_damping` selects the penalty
+      `EndStops`, one-sided spring-dampers: a soft contact that penetrates, whose
+      stiffness forces many small steps (use `"tsit5"` or `"kvaerno5"`) and whose
+      gradients are biased after an impact.
     Stiff settings need an adaptive solver (`"tsit5"`) or an implicit one (`"kvaerno5"`).
     """
 

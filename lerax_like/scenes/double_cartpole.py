@@ -62,8 +62,10 @@ class DoubleCartPole(AbstractEnv):
     `solver` (a preset name or a diffrax solver; default "rk4") with
     `stepsize_controller`, `max_episode_steps`. Add-ons (absent unless given, see
     `lerax_like.physics.forces`): `joint_damping` (every joint's damper acts on the rate
-    of its two neighbours, the cart being the first pole's), `end_stop_stiffness`,
-    `end_stop_damping`, `track_limit`.
+    of its two neighbours, the cart being the first pole's); the rail's ends at
+    `track_limit`, either as walls located as events (`restitution`, with
+    `min_rebound_speed` and `max_events`: an impulse-consistent impact, both poles' rates
+    jump) or as penalty end stops (`end_stop_stiffness`, `end_stop_damping`), as `CartPole`.
     """
 
     stochastic: ClassVar[bool] = False  # nothing random but the start

@@ -22,7 +22,7 @@ import diffrax
 import equinox as eqx
 import numpy as np
 
-from ._types import State
+from .._types import State
 
 
 def _identity(y: State) -> State:

@@ -1,0 +1,25 @@
+"""Integrating a vector field over one env step with any diffrax solver.
+
+One concept per module, as diffrax's `_solver/`: the solvers this package adds (`RK4`,
+`SemiImplicitEuler`, `HermiteDenseOutput`), the `GuardedPIDController`, the root finders
+of the implicit presets, `solver_facts` (order, stages, evaluations, error estimate: read
+once, by every listing, study and count), the presets by name (`SOLVERS`), and the
+`Integrator` that `make_integrator` builds from a preset name or a solver, refusing
+pairings that would silently produce garbage.
+"""
+
+from ._controller import GuardedPIDController as GuardedPIDController
+from ._dense import HermiteDenseOutput as HermiteDenseOutput
+from ._facts import SolverFacts as SolverFacts, has_error_estimate as has_error_estimate, solver_facts as solver_facts
+from ._integrator import Integrator as Integrator, make_integrator as make_integrator
+from ._presets import (
+    SOLVER_PRESETS as SOLVER_PRESETS,
+    SOLVERS as SOLVERS,
+    SolverPreset as SolverPreset,
+    SolverTable as SolverTable,
+    describe_solver as describe_solver,
+    register_solver as register_solver,
+    unregister_solver as unregister_solver,
+)
+from ._rk4 import RK4 as RK4
+from ._semi_implicit import ProjectedODETerm as ProjectedODETerm, SemiImplicitEuler as SemiImplicitEuler

@@ -1,0 +1,292 @@
+"""The `Integrator`: how one env step integrates the vector field, and `make_integrator`."""
+
+import dataclasses
+from collections.abc import Callable
+from typing import Any
+
+import diffrax
+import equinox as eqx
+import jax.numpy as jnp
+
+from .._checks import check_count
+from .._types import Array, BoolScalar, Input, IntScalar, ScalarLike, State
+from ..gradients import warn_if_silent
+from ._controller import GuardedPIDController
+from ._dense import HermiteDenseOutput, needs_hermite_dense_output
+from ._facts import has_error_estimate
+from ._presets import SOLVER_PRESETS, SOLVERS
+from ._root_finder import uses_controller_tolerances
+from ._semi_implicit import ProjectedODETerm
+
+
+class Integrator(eqx.Module):
+    """How one env step integrates the vector field over `[0, dt]`, the input held fixed.
+
+    - `solver`: any diffrax solver.
+    - `stepsize_controller`: `ConstantStepSize` (then `substeps` equal steps per env
+      step) or an adaptive controller such as `PIDController`.
+    - `max_steps`: the step budget of one env step; exhausting it is reported as
+      `solver_ok=False`, never raised.
+    - `adjoint`: how gradients pass through the solve.
+    """
+
+    # The solver and the controller are held split: their arrays are leaves of the env (a
+    # tolerance given as an array is traced, so one compilation serves a sweep of them),
+    # everything else (a controller's `norm` function, diffrax's marker for tolerances
+    # taken from the controller, Python numbers) is static. Every leaf of an env is then
+    # an array, and an env is a valid argument of plain `jax.jit`, not only of
+    # `eqx.filter_jit`; under `eqx.filter_jit` nothing changes (it holds non-arrays
+    # static too).
+    solver_arrays: Any
+    solver_static: Any = eqx.field(static=True)
+    controller_arrays: Any
+    controller_static: Any = eqx.field(static=True)
+    adjoint: diffrax.AbstractAdjoint
+    max_steps: int = eqx.field(static=True)
+    substeps: int = eqx.field(static=True)
+
+    def __init__(
+        self,
+        solver: diffrax.AbstractSolver,
+        stepsize_controller: diffrax.AbstractStepSizeController | None = None,
+        *,
+        max_steps: int | None = None,
+        adjoint: diffrax.AbstractAdjoint | None = None,
+        substeps: int = 1,
+    ):
+        if not isinstance(solver, diffrax.AbstractSolver):
+            raise TypeError(f"solver must be a diffrax solver or one of {SOLVER_PRESETS}, got {solver!r}")
+        if stepsize_controller is None:
+            stepsize_controller = diffrax.ConstantStepSize()
+        if not isinstance(stepsize_controller, diffrax.AbstractStepSizeController):
+            raise TypeError(
+                f"stepsize_controller must be a diffrax step-size controller, got {stepsize_controller!r}"
+            )
+        check_count(substeps, "substeps")
+        adaptive = isinstance(stepsize_controller, diffrax.AbstractAdaptiveStepSizeController)
+        if adaptive and not has_error_estimate(solver):
+            raise ValueError(
+                f"solver {type(solver).__name__} has no error estimate, so it cannot be paired "
+                f"with the adaptive stepsize_controller {type(stepsize_controller).__name__}: "
+                "every step would be accepted and the result would be garbage. Use "
+                "diffrax.ConstantStepSize() (with `substeps` for accuracy) or a solver with an "
+                "embedded error estimate, such as 'tsit5'."
+            )
+        if not adaptive and uses_controller_tolerances(solver):
+            raise ValueError(
+                f"the implicit solver {type(solver).__name__} takes its root finder's tolerances "
+                f"from the step-size controller, but {type(stepsize_controller).__name__} has none. "
+                "Use an adaptive controller such as diffrax.PIDController(rtol=1e-6, atol=1e-9) "
+                "(recommended: a failed Newton solve then shrinks the step instead of failing "
+                "the env step), or give the root finder explicit tolerances, e.g. "
+                f"diffrax.{type(solver).__name__}(root_finder=optimistix.Chord(rtol=1e-6, "
+                "atol=1e-6, norm=optimistix.rms_norm)), as the implicit presets do."
+            )
+        if max_steps is None:
+            if isinstance(stepsize_controller, diffrax.StepTo):
+                max_steps = len(stepsize_controller.ts) - 1
+            else:
+                max_steps = 4096 if adaptive else substeps
+        check_count(max_steps, "max_steps")
+        self.solver_arrays, self.solver_static = eqx.partition(solver, eqx.is_array)
+        self.controller_arrays, self.controller_static = eqx.partition(stepsize_controller, eqx.is_array)
+        self.adjoint = diffrax.RecursiveCheckpointAdjoint() if adjoint is None else adjoint
+        warn_if_silent(self.adjoint)
+        self.max_steps = max_steps
+        self.substeps = substeps
+
+    @property
+    def solver(self) -> diffrax.AbstractSolver:
+        """The diffrax solver."""
+        return eqx.combine(self.solver_arrays, self.solver_static)
+
+    @property
+    def stepsize_controller(self) -> diffrax.AbstractStepSizeController:
+        """The step-size controller."""
+        return eqx.combine(self.controller_arrays, self.controller_static)
+
+    @property
+    def adaptive(self) -> bool:
+        return isinstance(self.stepsize_controller, diffrax.AbstractAdaptiveStepSizeController)
+
+    @property
+    def _single_step(self) -> bool:
+        # One constant step whose gradient is the plain derivative of the step: the
+        # solver's own `step` is called directly. `diffeqsolve` would run it inside its
+        # step loop, which XLA cannot fuse with the rest of an env step (about a tenth of
+        # a vmapped CartPole step, see benchmarks/profile_step.py); the result is the same.
+        return (
+            type(self.stepsize_controller) is diffrax.ConstantStepSize
+            and self.substeps == 1
+            and isinstance(self.adjoint, (diffrax.RecursiveCheckpointAdjoint, diffrax.ForwardMode))
+        )
+
+    def _term_and_first_step(self, vector_field, dt, projection, velocity_indices):
+        """The term to solve and the first step `integrate` and `dense_states` both take."""
+        # An adaptive controller picks its own first step (Hairer's heuristic). A first
+        # trial step of the whole `dt` can overflow on a stiff problem, and the
+        # PIDController turns the resulting NaN error into a NaN step size that rejects
+        # every later step (Van der Pol, mu=1e3, dt=10: 0 of 4096 steps accepted).
+        dt0 = dt / self.substeps if isinstance(self.stepsize_controller, diffrax.ConstantStepSize) else None
+        if projection is None and velocity_indices is None:
+            return diffrax.ODETerm(vector_field), dt0
+        optional = {} if projection is None else {"projection": projection}
+        return ProjectedODETerm(vector_field, velocity_indices=velocity_indices, **optional), dt0
+
+    def integrate(
+        self,
+        vector_field: Callable[[ScalarLike, State, Input], State],
+        y0: State,
+        u: Input,
+        dt: ScalarLike,
+        *,
+        projection: Callable[[State], State] | None = None,
+        velocity_indices: tuple[int, ...] | None = None,
+    ) -> tuple[State, dict[str, Array]]:
+        """Solve `dy/dt = vector_field(t, y, u)` over `[0, dt]` from `y0`.
+
+        `projection` (idempotent) maps states onto the admissible set (speed limits,
+        walls, angle wrapping): it is applied to the end state whatever the solver, and
+        inside the step by solvers that know of it (`SemiImplicitEuler`, between its
+        velocity and position updates). `velocity_indices` names the velocity components
+        of a second-order state, which `SemiImplicitEuler` needs.
+
+        Returns the state at `dt` and `{"solver_ok", "solver_steps",
+        "solver_rejected_steps"}` (accepted and rejected steps). `solver_ok` is
+        False when the solver failed (step budget exhausted, step size collapsed, root
+        finder diverged) or the state is not finite; the state is then not to be used.
+        """
+        dt = jnp.asarray(dt, dtype=y0.dtype)
+        term, dt0 = self._term_and_first_step(vector_field, dt, projection, velocity_indices)
+        if self._single_step:
+            return self._step_once(term, y0, u, dt, projection)
+        solution = self._solve(term, y0, u, dt, dt0, adjoint=self.adjoint)
+        steps: IntScalar = solution.stats["num_accepted_steps"]
+        rejected: IntScalar = solution.stats["num_steps"] - steps
+        solved = solution.result == diffrax.RESULTS.successful
+        return self._finish(solution.ys[-1], solved, steps, rejected, projection)
+
+    def dense_states(
+        self,
+        vector_field: Callable[[ScalarLike, State, Input], State],
+        y0: State,
+        u: Input,
+        dt: ScalarLike,
+        ts: Array,
+        *,
+        projection: Callable[[State], State] | None = None,
+        velocity_indices: tuple[int, ...] | None = None,
+    ) -> tuple[Array, BoolScalar]:
+        """The solver's own dense output of the solve `integrate` makes, at times `ts` in `[0, dt]`.
+
+        Same solver, controller, first step and budget as `integrate`, so the same steps;
+        between them the solver's interpolation: the methods' own for Tsit5, Dopri5 and
+        Dopri8, linear for the Euler methods, and cubic Hermite from the vector field at
+        both ends of each step for the other explicit Runge--Kutta methods, a user's
+        tableau included (`HermiteDenseOutput`: of the method's order up to four, where
+        diffrax's default slope at the step's end, its last stage, can lose orders). No
+        projection is applied to the interpolated states. Returns the states, shape
+        `(len(ts), n)`, and whether the solve succeeded.
+        """
+        dt = jnp.asarray(dt, dtype=y0.dtype)
+        term, dt0 = self._term_and_first_step(vector_field, dt, projection, velocity_indices)
+        solver = self.solver
+        if needs_hermite_dense_output(solver):
+            solver = HermiteDenseOutput(solver)
+        saveat = diffrax.SaveAt(ts=jnp.asarray(ts, dtype=y0.dtype))
+        solution = self._solve(term, y0, u, dt, dt0, saveat=saveat, solver=solver)
+        return solution.ys, solution.result == diffrax.RESULTS.successful
+
+    def _solve(self, term, y0, u, dt, dt0, *, solver=None, **options) -> diffrax.Solution:
+        """`diffeqsolve` over `[0, dt]` with this integrator's solver, controller and budget."""
+        solver = self.solver if solver is None else solver
+        controller = self.stepsize_controller
+        if type(controller) is diffrax.PIDController:
+            controller = GuardedPIDController(**{f.name: getattr(controller, f.name) for f in dataclasses.fields(controller)})
+        return diffrax.diffeqsolve(
+            term, solver, t0=jnp.zeros((), dtype=y0.dtype), t1=dt, dt0=dt0, y0=y0, args=u,
+            stepsize_controller=controller, max_steps=self.max_steps, throw=False, **options,
+        )
+
+    def _step_once(self, term, y0, u, dt, projection):
+        solver = self.solver
+        if isinstance(solver, diffrax.AbstractERK) and isinstance(solver.tableau, diffrax.ButcherTableau):
+            y1 = _explicit_runge_kutta_step(solver.tableau, term, y0, u, dt)
+            return self._finish(y1, jnp.asarray(True), jnp.asarray(1), jnp.asarray(0), projection)
+        if isinstance(solver, diffrax.AbstractRungeKutta) and solver.scan_kind is None:
+            # As `diffeqsolve` sets it for the adjoint: a Runge-Kutta method's stage loop
+            # is by default checkpointed, which forward-mode autodiff cannot pass through.
+            kind = "lax" if isinstance(self.adjoint, diffrax.ForwardMode) else "bounded"
+            solver = eqx.tree_at(lambda s: s.scan_kind, solver, kind, is_leaf=lambda x: x is None)
+        t0 = jnp.zeros((), dtype=y0.dtype)
+        solver_state = solver.init(term, t0, dt, y0, u)
+        y1, _, _, _, result = solver.step(term, t0, dt, y0, u, solver_state, made_jump=False)
+        # Counts as `diffeqsolve` reports them: one accepted step, none rejected.
+        return self._finish(y1, result == diffrax.RESULTS.successful, jnp.asarray(1), jnp.asarray(0), projection)
+
+    @staticmethod
+    def _finish(y1, solved, steps, rejected, projection):
+        # Checked before the projection too: clipping an infinite speed to its bound
+        # would otherwise make a diverged solve look finite.
+        finite = jnp.all(jnp.isfinite(y1))
+        if projection is not None:
+            y1 = projection(y1)
+        ok: BoolScalar = solved & finite & jnp.all(jnp.isfinite(y1))
+        info = {"solver_ok": ok, "solver_steps": steps, "solver_rejected_steps": rejected}
+        return y1, info
+
+
+def _explicit_runge_kutta_step(tableau: diffrax.ButcherTableau, term, y0: State, u: Input, dt) -> State:
+    """One step of an explicit Runge-Kutta method from its Butcher tableau, stage by stage.
+
+    What the solver's own `step` computes (up to rounding), written out: diffrax runs the
+    stages in a loop (a `while` over a stage buffer, for its autodiff), which XLA cannot
+    fuse; unrolled, a vmapped RK4 env step (Acrobot) is plain arithmetic, as a hand-written
+    one is (`benchmarks/gym_vector.py`).
+    """
+    t0 = jnp.zeros((), dtype=y0.dtype)
+    stages = [term.vf(t0, y0, u)]
+    for c, a_row in zip(tableau.c, tableau.a_lower):
+        increment = sum(float(a) * k for a, k in zip(a_row, stages) if a != 0)
+        y = y0 if isinstance(increment, int) else y0 + dt * increment
+        stages.append(term.vf(float(c) * dt, y, u))
+    return y0 + dt * sum(float(b) * k for b, k in zip(tableau.b_sol, stages) if b != 0)
+
+
+def make_integrator(
+    solver: "str | diffrax.AbstractSolver | Integrator" = "euler",
+    stepsize_controller: diffrax.AbstractStepSizeController | None = None,
+    *,
+    max_steps: int | None = None,
+    adjoint: diffrax.AbstractAdjoint | None = None,
+    substeps: int = 1,
+) -> Integrator:
+    """An `Integrator` from a preset name (see `SOLVER_PRESETS`) or a diffrax solver.
+
+    A preset brings its default controller (`PIDController` for the embedded methods,
+    `ConstantStepSize` for the others) unless `stepsize_controller` is given. A solver
+    object defaults to `ConstantStepSize`.
+
+    The implicit presets (`"implicit_euler"`, `"kvaerno3"`, `"kvaerno4"`, `"kvaerno5"`)
+    solve their stages with `optimistix.Chord` at the controller's tolerances (diffrax's
+    default `VeryChord` rejects about half of Kvaerno5's steps: Van der Pol at mu = 1e3
+    takes 7496 steps instead of 775, see `benchmarks/results/root_finders.md`). Under a
+    constant step size they get explicit tolerances (1e-6) instead; an implicit solver
+    object without them is refused there.
+    """
+    if isinstance(solver, Integrator):
+        if stepsize_controller is not None or max_steps is not None or adjoint is not None or substeps != 1:
+            raise ValueError("pass either an Integrator or solver settings, not both")
+        return solver
+    if isinstance(solver, str):
+        preset = SOLVERS.find(solver)
+        if stepsize_controller is None:
+            stepsize_controller = preset.make_controller()
+        adaptive = isinstance(stepsize_controller, diffrax.AbstractAdaptiveStepSizeController)
+        if preset.make_fixed_step_solver is not None and not adaptive:
+            solver = preset.make_fixed_step_solver()
+        else:
+            solver = preset.make_solver()
+    return Integrator(
+        solver, stepsize_controller, max_steps=max_steps, adjoint=adjoint, substeps=substeps
+    )
