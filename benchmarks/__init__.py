@@ -14,6 +14,7 @@ which `benchmarks/RESULTS.md` is generated. `--quick` runs write to `benchmarks/
 (git-ignored, with its own RESULTS.md), so a smoke run never touches the recorded results.
 """
 
+import argparse
 import dataclasses
 import pathlib
 
@@ -26,6 +27,37 @@ QUICK_RESULTS = RESULTS / "quick"
 def results_dir(quick: bool) -> pathlib.Path:
     """Where a benchmark writes by default: the recorded results, or the git-ignored quick folder."""
     return QUICK_RESULTS if quick else RESULTS
+
+
+def benchmark_parser(description: str, quick: str) -> argparse.ArgumentParser:
+    """A benchmark's command line with the two options the runner passes: `--quick` (`quick`
+    says what it shrinks) and `--out` (the folder, default `results_dir`); add its own."""
+    parser = argparse.ArgumentParser(description=description, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--quick", action="store_true", help=quick)
+    parser.add_argument("--out", type=pathlib.Path, default=None, help="default: benchmarks/results[/quick]")
+    return parser
+
+
+def sized_arguments(
+    description: str, argv, *, quick: tuple[int, int, int], full: tuple[int, int, int]
+) -> argparse.Namespace:
+    """The command line of a benchmark sized by `--envs N`, `--steps T` and `--repeats R`:
+    each defaults to `full`'s `(N, T, R)`, or to `quick`'s with `--quick`."""
+    parser = benchmark_parser(description, quick="N={}, T={}, {} repeats".format(*quick))
+    for name in ("envs", "steps", "repeats"):
+        parser.add_argument(f"--{name}", type=int, default=None)
+    arguments = parser.parse_args(argv)
+    for name, small, large in zip(("envs", "steps", "repeats"), quick, full):
+        if getattr(arguments, name) is None:
+            setattr(arguments, name, small if arguments.quick else large)
+    return arguments
+
+
+def output_folder(arguments: argparse.Namespace) -> pathlib.Path:
+    """Where a benchmark parsed by `benchmark_parser` writes: `--out` or `results_dir`, created."""
+    out = pathlib.Path(arguments.out or results_dir(arguments.quick))
+    out.mkdir(parents=True, exist_ok=True)
+    return out
 
 
 @dataclasses.dataclass(frozen=True)

@@ -7,7 +7,6 @@ never repeats a number by hand. A file edited after its run record was written i
 """
 
 import ast
-import csv
 import hashlib
 import json
 import math
@@ -15,14 +14,23 @@ import os
 import pathlib
 
 from benchmarks import BENCHMARKS, HERE, results_dir
+from lerax_like.analysis.recording import read_csv_rows
+from lerax_like.analysis.report import VERDICT_TARGETS, cheapest_at, read_csv
+from lerax_like.analysis.verdict import UNRESOLVED_SPREAD, UNRESOLVED_TIMING_FACTOR
 
 
 def _read_csv(folder: pathlib.Path, name: str) -> list[dict] | None:
     path = folder / name
-    if not path.exists():
-        return None
-    with open(path, newline="") as file:
-        return list(csv.DictReader(file))
+    return read_csv_rows(path) if path.exists() else None
+
+
+def _runs(folder: pathlib.Path, name: str):
+    """`(header lines, rows)` of a benchmark's first run and of its second, where recorded:
+    the second run's lines name its own provenance."""
+    for stem, title in ((name, None), (f"{name}_second_run", "Second run")):
+        rows = _read_csv(folder, f"{stem}.csv")
+        if rows is not None:
+            yield ([f"**{title}**: " + " ".join(provenance(folder, stem)).strip(), ""] if title else []), rows, stem
 
 
 def _read_json(folder: pathlib.Path, name: str):
@@ -106,17 +114,7 @@ def work_precision(folder, link):
         ]
         if (folder / f"work_precision_{scene}.png").exists():
             lines += [f"![{scene} work-precision]({link}/work_precision_{scene}.png)", ""]
-        rows = []
-        for target, by_time in data.get("cheapest_by_seconds", {}).items():
-            by_work = data.get("cheapest_by_evaluations", {}).get(target)
-            cell_time = (f"`{by_time['label']}` {by_time['setting']}: error {_g(by_time['error'], 2)}, "
-                         f"{float(by_time['seconds']) * 1e3:.3g} ms") if by_time else "none"
-            cell_work = (f"`{by_work['label']}` {by_work['setting']}: error {_g(by_work['error'], 2)}, "
-                         f"{float(by_work['vector_field_evaluations']):.0f} evaluations") if by_work else "none"
-            rows.append([target, cell_time, cell_work])
-        if rows:
-            lines += ["Cheapest setting that reaches each error:", ""]
-            lines += _table(["error at most", "by run time", "by vector-field evaluations"], rows)
+        lines += _verdicts(folder / f"work_precision_{scene}.csv")
         orders = [order for order in data.get("convergence_orders", []) if order.get("order") is not None]
         if orders:
             rows = []
@@ -126,6 +124,34 @@ def work_precision(folder, link):
             lines += ["Fitted orders (slope of log error on log step):", ""]
             lines += _table(["actions", "solver", "error order", "points", "energy drift order", "momentum drift order"], rows)
     return lines
+
+
+def _verdicts(path: pathlib.Path) -> list[str]:
+    """The cheapest setting at each error level, reached from the study's CSV by the package's
+    own rule (`lerax_like.analysis.verdict`): coinciding settings are one, evaluations decide,
+    and run time counts only where it is resolved."""
+    if not path.exists():
+        return []
+    rows = read_csv(path)
+    table = []
+    for target in VERDICT_TARGETS:
+        cells = []
+        for cost in ("vector_field_evaluations", "seconds"):
+            best = cheapest_at(rows, target, cost=cost)
+            if best is None:
+                cells.append("none" if cost != "seconds" else "none with a resolved timing")
+                continue
+            amount = (f"{best[cost]:.0f} evaluations" if cost != "seconds" else f"{best[cost] * 1e3:.3g} ms")
+            tied = f" (within timing noise of {', '.join(best['tied_with'])})" if best["tied_with"] else ""
+            if best["unmeasured"]:
+                tied += f" (not compared, evaluations unknown: {', '.join(best['unmeasured'])})"
+            cells.append(f"`{best['label']}` {best['setting']}: error {_g(best['error'], 2)}, {amount}{tied}")
+        table.append([f"{target:.0e}", *cells])
+    return [
+        "Cheapest setting that reaches each error (settings whose errors and step counts coincide are one "
+        "setting, named by their range; run time only where it is resolved: more than "
+        f"{UNRESOLVED_TIMING_FACTOR:g}x an empty compiled call and repeats within {UNRESOLVED_SPREAD:.0%}):", "",
+    ] + _table(["error at most", "by vector-field evaluations", "by run time (resolved only)"], table)
 
 
 def gradient_error(folder, link):
@@ -237,12 +263,8 @@ def gradient_memory(folder, link):
 
 def throughput(folder, link):
     lines = []
-    for stem, title in (("throughput", None), ("throughput_second_run", "Second run")):
-        rows = _read_csv(folder, f"{stem}.csv")
-        if rows is None:
-            continue
-        if title:
-            lines += [f"**{title}**: " + " ".join(provenance(folder, stem)).strip(), ""]
+    for header, rows, stem in _runs(folder, "throughput"):
+        lines += header
         counts = sorted({int(row["num_envs"]) for row in rows})
         names = list(dict.fromkeys(row["implementation"] for row in rows))
         cells = {(row["implementation"], int(row["num_envs"])): row for row in rows}
@@ -296,12 +318,8 @@ def compile_time(folder, link):
 
 def adaptive_vmap(folder, link):
     lines = []
-    for stem, title in (("adaptive_vmap", None), ("adaptive_vmap_second_run", "Second run")):
-        rows = _read_csv(folder, f"{stem}.csv")
-        if rows is None:
-            continue
-        if title:
-            lines += [f"**{title}**: " + " ".join(provenance(folder, stem)).strip(), ""]
+    for header, rows, _ in _runs(folder, "adaptive_vmap"):
+        lines += header
         lines += _table(
             ["batch", "time vs all easy", "solver steps per env step (mean)", "loop iterations (max over batch)"],
             [[row["batch"], f"{float(row['time_vs_all_easy']):.2f}", _g(row["mean_solver_steps"]),

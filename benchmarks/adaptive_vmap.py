@@ -22,10 +22,7 @@ Rows (one run, repeats interleaved):
 Writes adaptive_vmap.csv into benchmarks/results/ (results/quick/ with --quick).
 """
 
-import argparse
-import csv
 import os
-import pathlib
 
 import equinox as eqx
 import jax
@@ -33,8 +30,9 @@ import jax.numpy as jnp
 import jax.random as jr
 
 import lerax_like
-from benchmarks import results_dir
+from benchmarks import output_folder, sized_arguments
 from benchmarks._workload import interleaved, summary
+from lerax_like.analysis.recording import write_csv
 
 
 EASY, HARD = 0.5, 0.005
@@ -69,17 +67,8 @@ def program(envs, num_steps):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--quick", action="store_true", help="N=64, T=20, 2 repeats")
-    parser.add_argument("--envs", type=int, default=None)
-    parser.add_argument("--steps", type=int, default=None)
-    parser.add_argument("--repeats", type=int, default=None)
-    parser.add_argument("--out", type=pathlib.Path, default=None, help="default: benchmarks/results[/quick]")
-    args = parser.parse_args(argv)
-    args.envs = args.envs or (64 if args.quick else 1024)
-    args.steps = args.steps or (20 if args.quick else 200)
-    args.repeats = args.repeats or (2 if args.quick else 5)
-    out = args.out or results_dir(args.quick)
+    args = sized_arguments(__doc__, argv, quick=(64, 20, 2), full=(1024, 200, 5))
+    out = output_folder(args)
     n = args.envs
     keys = jr.split(jr.key(0), n)
 
@@ -111,14 +100,11 @@ def main(argv=None):
     rows = []
     for name, seconds in best.items():
         mean_steps, paid_steps = work[name]
-        rows.append([name, f"{seconds:.5f}", f"{seconds / reference:.3f}", f"{mean_steps:.3f}", f"{paid_steps:.3f}"])
+        rows.append({"batch": name, "min_s": f"{seconds:.5f}", "time_vs_all_easy": f"{seconds / reference:.3f}",
+                     "mean_solver_steps": f"{mean_steps:.3f}", "max_over_batch_solver_steps": f"{paid_steps:.3f}"})
         print(f"{name:36s} {seconds * 1e3:9.1f} ms  x{seconds / reference:6.2f} all-easy  "
               f"solver steps per env step: mean {mean_steps:5.2f}, loop iterations {paid_steps:5.2f}")
-    out.mkdir(parents=True, exist_ok=True)
-    with open(out / "adaptive_vmap.csv", "w", newline="") as file:
-        writer = csv.writer(file)
-        writer.writerow(["batch", "min_s", "time_vs_all_easy", "mean_solver_steps", "max_over_batch_solver_steps"])
-        writer.writerows(rows)
+    write_csv(rows, out / "adaptive_vmap.csv")
 
 
 if __name__ == "__main__":

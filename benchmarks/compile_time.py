@@ -15,10 +15,7 @@ mostly single-threaded), minimum over fresh repeats.
 Writes compile_time.csv into benchmarks/results/ (results/quick/ with --quick).
 """
 
-import argparse
-import csv
 import os
-import pathlib
 import time
 
 import jax
@@ -26,8 +23,9 @@ import jax.numpy as jnp
 import jax.random as jr
 
 import lerax_like
-from benchmarks import results_dir
+from benchmarks import benchmark_parser, output_folder
 from benchmarks._workload import batched, gymnax_program, scanned
+from lerax_like.analysis.recording import write_csv
 from benchmarks.throughput import lerax_program
 
 
@@ -75,16 +73,14 @@ def step_program(make_step, num_steps=NUM_STEPS, num_envs=NUM_ENVS):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--quick", action="store_true", help="Euler and gymnax only, 100 steps, N=64, one compile")
+    parser = benchmark_parser(__doc__, quick="Euler and gymnax only, 100 steps, N=64, one compile")
     parser.add_argument("--solvers", nargs="+", default=None)
     parser.add_argument("--repeats", type=int, default=None)
-    parser.add_argument("--out", type=pathlib.Path, default=None, help="default: benchmarks/results[/quick]")
     args = parser.parse_args(argv)
     solvers = args.solvers or (["euler"] if args.quick else ["euler", "rk4", "tsit5"])
     repeats = args.repeats or (1 if args.quick else 3)
     num_steps, num_envs = (100, 64) if args.quick else (NUM_STEPS, NUM_ENVS)
-    out = args.out or results_dir(args.quick)
+    out = output_folder(args)
 
     programs = {}
     for solver in solvers:
@@ -106,12 +102,7 @@ def main(argv=None):
         rows.append({"implementation": implementation, "program": kind, **best})
         print(f"{implementation:18s} {kind:8s} lower {best['lower_wall_s']:6.2f} s  compile {best['compile_wall_s']:6.2f} s  "
               f"total {best['total_wall_s']:6.2f} s wall, {best['total_cpu_s']:6.2f} s CPU")
-    out.mkdir(parents=True, exist_ok=True)
-    with open(out / "compile_time.csv", "w", newline="") as file:
-        writer = csv.DictWriter(file, fieldnames=list(rows[0]))
-        writer.writeheader()
-        for row in rows:
-            writer.writerow({k: (f"{v:.4f}" if isinstance(v, float) else v) for k, v in row.items()})
+    write_csv(rows, out / "compile_time.csv", cell=lambda v: f"{v:.4f}" if isinstance(v, float) else v)
 
 
 if __name__ == "__main__":

@@ -10,9 +10,7 @@ The same study as `lerax-like gradients CartPoleContinuous`, with this loss and 
     python -m benchmarks gradient_error --quick    # the quick study's sweeps, into results/quick/
 """
 
-import argparse
 import json
-import pathlib
 
 import jax
 import jax.numpy as jnp
@@ -20,7 +18,7 @@ import jax.numpy as jnp
 jax.config.update("jax_enable_x64", True)
 
 import lerax_like as ll  # noqa: E402  (after float64 is on)
-from benchmarks import results_dir  # noqa: E402
+from benchmarks import benchmark_parser, output_folder  # noqa: E402
 from lerax_like.analysis.gradient_accuracy import (  # noqa: E402
     GradientStudyConfig,
     run_gradient_study,
@@ -43,12 +41,8 @@ def sum_cos_theta(ys):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="the quick study's sweeps and repeats")
-    parser.add_argument("--out", type=pathlib.Path, default=None, help="default: benchmarks/results[/quick]")
-    arguments = parser.parse_args(argv)
-    out = arguments.out or results_dir(arguments.quick)
-    out.mkdir(parents=True, exist_ok=True)
+    arguments = benchmark_parser(__doc__, quick="the quick study's sweeps and repeats").parse_args(argv)
+    out = output_folder(arguments)
     config = GradientStudyConfig.default(
         "CartPoleContinuous",
         quick=arguments.quick,

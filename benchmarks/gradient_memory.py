@@ -15,9 +15,6 @@ runs after compilation.
     python -m benchmarks gradient_memory --quick    # 120 steps, 8 envs, into results/quick/
 """
 
-import argparse
-import json
-import pathlib
 import time
 
 import equinox as eqx
@@ -29,7 +26,8 @@ import numpy as np
 jax.config.update("jax_enable_x64", True)
 
 import lerax_like as ll  # noqa: E402  (after float64 is on)
-from benchmarks import results_dir  # noqa: E402
+from benchmarks import benchmark_parser, output_folder  # noqa: E402
+from lerax_like.analysis.recording import write_record  # noqa: E402
 from lerax_like.env import EnvState  # noqa: E402
 
 STEPS = 1000
@@ -96,11 +94,8 @@ def measure(loss, env, y0s, actions, solver):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="120 steps, 8 envs")
-    parser.add_argument("--out", type=pathlib.Path, default=None, help="default: benchmarks/results[/quick]")
-    arguments = parser.parse_args(argv)
-    out = arguments.out or results_dir(arguments.quick)
+    arguments = benchmark_parser(__doc__, quick="120 steps, 8 envs").parse_args(argv)
+    out = output_folder(arguments)
     steps, batch = (3 * SEGMENT, 8) if arguments.quick else (STEPS, BATCH)  # a whole number of segments
     actions = 0.5 * jnp.sin(0.05 * jnp.arange(steps, dtype=jnp.float64))[:, None]
     y0s = jnp.stack([jnp.array([0.0, 0.0, 0.3, 0.0])] * batch) + 0.01 * jr.normal(jr.key(0), (batch, 4))
@@ -116,10 +111,8 @@ def main(argv=None):
             rows.append(row)
             print(f"{solver:>6} {name:>26}: {row['temp_bytes'] / 2**20:8.2f} MiB temp, {row['seconds'] * 1e3:8.1f} ms, "
                   f"dL/d pole_mass = {row['grad_pole_mass']:.12g}")
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "gradient_memory.json").write_text(
-        json.dumps({"rows": rows, "batch": batch, "jax": jax.__version__, "backend": jax.default_backend()}, indent=1)
-    )
+    write_record({"rows": rows, "batch": batch, "jax": jax.__version__, "backend": jax.default_backend()},
+                 out / "gradient_memory.json")
 
 
 if __name__ == "__main__":

@@ -15,10 +15,6 @@ the grid as a check of the study's numbers by a second code path.
     python -m benchmarks gradient_precision --quick    # the smooth cart-pole and one end-stop case, short horizons
 """
 
-import argparse
-import csv
-import json
-import pathlib
 import time
 
 import diffrax
@@ -26,14 +22,14 @@ import jax
 
 jax.config.update("jax_enable_x64", True)
 
-from benchmarks import results_dir  # noqa: E402
+from benchmarks import benchmark_parser, output_folder  # noqa: E402
 from lerax_like.analysis.gradient_variance import (  # noqa: E402
     GradientVarianceConfig,
     build_env,
     nominal_gain,
     precision_at_horizons,
 )
-from lerax_like.analysis.study import environment_record  # noqa: E402
+from lerax_like.analysis.recording import environment_record, write_csv, write_record  # noqa: E402
 
 HORIZONS = (2, 5, 10, 20, 50, 100, 200, 400)
 TOLERANCES = ((1e-6, 1e-9), (1e-5, 1e-7), (1e-4, 1e-6))
@@ -62,12 +58,8 @@ def cases(quick: bool):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="fewer cases, horizons up to 50")
-    parser.add_argument("--out", type=pathlib.Path, default=None, help="default: benchmarks/results[/quick]")
-    arguments = parser.parse_args(argv)
-    out = arguments.out or results_dir(arguments.quick)
-    out.mkdir(parents=True, exist_ok=True)
+    arguments = benchmark_parser(__doc__, quick="fewer cases, horizons up to 50").parse_args(argv)
+    out = output_folder(arguments)
     horizons = tuple(h for h in HORIZONS if h <= 50) if arguments.quick else HORIZONS
     rows, gains = [], {}
     start = time.perf_counter()
@@ -89,10 +81,8 @@ def main(argv=None):
         print(f"{config.name} {solver}{tolerance} {policy}: relative errors {errors}; leading digit lost at "
               f"{result['first_digit_lost_horizon']}; float32 solves ok {result['float32_solves_ok']} "
               f"({time.perf_counter() - began:.0f} s)", flush=True)
-    with open(out / "gradient_precision.csv", "w", newline="") as file:
-        writer = csv.DictWriter(file, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
+    # Errors in Python's shortest round-trip form, as the file has always held them.
+    write_csv(rows, out / "gradient_precision.csv", cell=str)
     record = {
         "horizons": list(horizons),
         "dt": float(build_env(GradientVarianceConfig.default("CartPoleContinuous"), "euler", "float64").dt),
@@ -101,7 +91,7 @@ def main(argv=None):
         "seconds": round(time.perf_counter() - start, 1),
         "environment": environment_record(),
     }
-    (out / "gradient_precision.json").write_text(json.dumps(record, indent=1) + "\n")
+    write_record(record, out / "gradient_precision.json")
     print(f"wrote {out / 'gradient_precision.csv'}, {out / 'gradient_precision.json'}")
 
 

@@ -19,15 +19,13 @@ antithetic samples for the reference, float64; float32 against float64 up to 400
     python -m benchmarks gradient_variance --quick    # the smooth cart-pole only, small sizes, into results/quick/
 """
 
-import argparse
-import pathlib
 import time
 
 import jax
 
 jax.config.update("jax_enable_x64", True)
 
-from benchmarks import results_dir  # noqa: E402
+from benchmarks import benchmark_parser, output_folder  # noqa: E402
 from lerax_like.analysis.gradient_variance import (  # noqa: E402
     GradientVarianceConfig,
     run_gradient_variance,
@@ -66,12 +64,9 @@ def configs(quick: bool = False):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="the smooth cart-pole only: horizons 10 and 50, 64 samples")
-    parser.add_argument("--out", type=pathlib.Path, default=None, help="default: benchmarks/results[/quick]")
-    arguments = parser.parse_args(argv)
-    out = arguments.out or results_dir(arguments.quick)
-    out.mkdir(parents=True, exist_ok=True)
+    quick = "the smooth cart-pole only: horizons 10 and 50, 64 samples"
+    arguments = benchmark_parser(__doc__, quick=quick).parse_args(argv)
+    out = output_folder(arguments)
     results = []
     start = time.perf_counter()
     for config in configs(arguments.quick):

@@ -11,18 +11,16 @@ rows are the costs of the parts. gymnax's CartPole runs beside them as the refer
 Writes profile_step.csv into benchmarks/results/ (results/quick/ with --quick).
 """
 
-import argparse
-import csv
 import os
-import pathlib
 
 import jax
 import jax.numpy as jnp
 import jax.random as jr
 
 import lerax_like
-from benchmarks import results_dir
+from benchmarks import output_folder, sized_arguments
 from benchmarks._workload import batched, compile_seconds, gymnax_program, interleaved, scanned, summary
+from lerax_like.analysis.recording import write_csv
 from lerax_like.env import EnvState
 
 
@@ -95,17 +93,8 @@ def variants(env):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--quick", action="store_true", help="N=64, T=100, 2 repeats")
-    parser.add_argument("--envs", type=int, default=None)
-    parser.add_argument("--steps", type=int, default=None)
-    parser.add_argument("--repeats", type=int, default=None)
-    parser.add_argument("--out", type=pathlib.Path, default=None, help="default: benchmarks/results[/quick]")
-    args = parser.parse_args(argv)
-    args.envs = args.envs or (64 if args.quick else 1024)
-    args.steps = args.steps or (100 if args.quick else 500)
-    args.repeats = args.repeats or (2 if args.quick else 7)
-    out = args.out or results_dir(args.quick)
+    args = sized_arguments(__doc__, argv, quick=(64, 100, 2), full=(1024, 500, 7))
+    out = output_folder(args)
 
     env = lerax_like.CartPole(solver="euler")
     runs = {}
@@ -124,14 +113,11 @@ def main(argv=None):
     for name, seconds in times.items():
         best, median = summary(seconds)
         steps_per_second = args.envs * args.steps / best
-        rows.append([name, f"{best:.5f}", f"{median:.5f}", f"{steps_per_second:.4g}", f"{best / reference:.3f}"])
+        rows.append({"variant": name, "min_s": f"{best:.5f}", "median_s": f"{median:.5f}",
+                     "steps_per_s": f"{steps_per_second:.4g}", "time_vs_gymnax": f"{best / reference:.3f}"})
         print(f"{name:36s} min {best * 1e3:8.2f} ms  median {median * 1e3:8.2f} ms  "
               f"{steps_per_second / 1e6:7.2f} M steps/s  x{best / reference:5.2f} gymnax time")
-    out.mkdir(parents=True, exist_ok=True)
-    with open(out / "profile_step.csv", "w", newline="") as file:
-        writer = csv.writer(file)
-        writer.writerow(["variant", "min_s", "median_s", "steps_per_s", "time_vs_gymnax"])
-        writer.writerows(rows)
+    write_csv(rows, out / "profile_step.csv")
 
 
 if __name__ == "__main__":

@@ -22,23 +22,20 @@ the largest difference from the same rollout run unsharded on process 0's first 
 also writes to sharded_rollout.json (in benchmarks/results/, or results/quick/ with --quick).
 """
 
-import argparse
 import functools
-import json
-import pathlib
 
 import jax
 
+from benchmarks import benchmark_parser, output_folder
+
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--quick", action="store_true", help="8 envs per device, 50 steps")
+    parser = benchmark_parser(__doc__, quick="8 envs per device, 50 steps")
     parser.add_argument("--coordinator", default=None, help="HOST:PORT of process 0")
     parser.add_argument("--num-processes", type=int, default=None)
     parser.add_argument("--process-id", type=int, default=None)
     parser.add_argument("--envs-per-device", type=int, default=None)
     parser.add_argument("--steps", type=int, default=None)
-    parser.add_argument("--out", type=pathlib.Path, default=None, help="default: benchmarks/results[/quick]")
     args = parser.parse_args(argv)
     args.envs_per_device = args.envs_per_device or (8 if args.quick else 256)
     args.steps = args.steps or (50 if args.quick else 500)
@@ -55,7 +52,7 @@ def main(argv=None):
     from jax.sharding import NamedSharding, PartitionSpec
 
     import lerax_like
-    from benchmarks import results_dir
+    from lerax_like.analysis.recording import write_record
 
     env = lerax_like.CartPole(solver="rk4")
     num_envs = args.envs_per_device * jax.device_count()
@@ -97,13 +94,11 @@ def main(argv=None):
             unsharded = np.asarray(jax.jit(jax.vmap(episode))(local_keys))
         difference = float(np.max(np.abs(gathered - unsharded)))
         print(f"largest difference from the unsharded run: {difference}")
-        out = args.out or results_dir(args.quick)
-        out.mkdir(parents=True, exist_ok=True)
-        (out / "sharded_rollout.json").write_text(json.dumps({
+        write_record({
             "processes": jax.process_count(), "devices": jax.device_count(), "num_envs": num_envs,
             "steps": args.steps, "mean_episodes_ended_per_env": mean_episodes,
             "largest_difference_from_unsharded": difference,
-        }, indent=1) + "\n")
+        }, output_folder(args) / "sharded_rollout.json")
 
 
 if __name__ == "__main__":

@@ -19,8 +19,9 @@ import os
 
 from benchmarks import results_dir
 from lerax_like.analysis import SCENES, StudyConfig, run_study
-from lerax_like.analysis.report import cheapest_at, format_orders, format_table, write_study
-from lerax_like.analysis.study import environment_record
+from lerax_like.analysis.report import VERDICT_TARGETS, cheapest_at, format_orders, format_table, write_study
+from lerax_like.analysis.verdict import verdict_line
+from lerax_like.analysis.recording import environment_record
 
 
 def main(argv=None) -> int:
@@ -57,9 +58,8 @@ def main(argv=None) -> int:
         print(f"== {scene} ({seconds:.0f} s) ==")
         print(format_table(result.rows))
         print(format_orders(result.convergence_orders()))
-        for target in (1e-3, 1e-6, 1e-9):
-            for cost in ("seconds", "vector_field_evaluations"):
-                print(f"cheapest at error <= {target:g} by {cost}:", cheapest_at(result.rows, target, cost=cost))
+        for target in VERDICT_TARGETS:
+            print(f"cheapest at error <= {target:g}: {verdict_line(cheapest_at(result.rows, target))}")
     return 0
 
 

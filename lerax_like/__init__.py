@@ -1,6 +1,16 @@
 """Continuous-time control environments for JAX: physics as vector fields, any diffrax solver."""
 
 from . import physics as physics, spaces as spaces
+# How dynamics and scenes declare their fields, checked by name at construction.
+from ._fields import (
+    FINITE as FINITE,
+    NONNEGATIVE as NONNEGATIVE,
+    POSITIVE as POSITIVE,
+    POSITIVE_OR_INF as POSITIVE_OR_INF,
+    Range as Range,
+    option as option,
+    parameter as parameter,
+)
 from .env import (
     AbstractEnv as AbstractEnv,
     EnvState as EnvState,
@@ -37,9 +47,10 @@ from .physics import (
     MountainCarDynamics as MountainCarDynamics,
     NLinkPendulumDynamics as NLinkPendulumDynamics,
     PendulumDynamics as PendulumDynamics,
+    PlanarQuadrotorDynamics as PlanarQuadrotorDynamics,
     VanDerPolDynamics as VanDerPolDynamics,
 )
-from .scenes import SCENES as SCENES
+from .scenes import SCENES as SCENES, AbstractUnitActionEnv as AbstractUnitActionEnv, register_scene as register_scene
 
 # Every registered scene at the top level (`lerax_like.CartPole`), from the one registry.
 globals().update(SCENES)

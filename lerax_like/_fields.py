@@ -64,9 +64,10 @@ def parameter(default: Any = dataclasses.MISSING, check: Range | None = POSITIVE
 
     `default_from(values)`, if given, computes the default from the fields declared
     before it (a threshold that depends on the task, say). `shape`, if given, is the
-    required number of dimensions (1 for per-link arrays).
+    required shape, a name standing for any length >= 1 that every field naming it shares
+    (`("n",)` for a chain's per-link masses and lengths, n the number of links).
     """
-    metadata = {"parameter": True, "range": check, "default_from": default_from, "ndim": shape}
+    metadata = {"parameter": True, "range": check, "default_from": default_from, "shape": shape}
     if default_from is not None:
         default = None
     return eqx.field(default=default, metadata=metadata)
@@ -75,6 +76,38 @@ def parameter(default: Any = dataclasses.MISSING, check: Range | None = POSITIVE
 def option(default: Any, choices: tuple | None = None, *, static: bool = True):
     """A static option (it decides code paths or shapes), one of `choices` if given."""
     return eqx.field(default=default, static=static, metadata={"choices": choices})
+
+
+def check_shape(value, shape: tuple[str | int, ...] | None, name: str, sizes: dict[str, tuple[int, str]]) -> None:
+    """Refuse `value` unless its shape is `shape`.
+
+    A name in `shape` matches any length >= 1, the same length in every field that uses it:
+    `sizes` maps each name already met to its length and the field that set it.
+    """
+    if shape is None:
+        return
+    wanted = "(" + ", ".join(map(str, shape)) + ("," if len(shape) == 1 else "") + ")"
+    fits = len(value.shape) == len(shape) and all(
+        size >= 1 if isinstance(want, str) else size == want for size, want in zip(value.shape, shape)
+    )
+    if not fits:
+        named = [want for want in shape if isinstance(want, str)]
+        lengths = f" with {', '.join(named)} >= 1" if named else ""
+        raise ValueError(f"{name} must be an array of shape {wanted}{lengths}, got shape {value.shape}")
+    for size, want in zip(value.shape, shape):
+        if not isinstance(want, str):
+            continue
+        known, owner = sizes.setdefault(want, (size, name))
+        if size != known:
+            raise ValueError(
+                f"{name} must have shape {wanted} with {want} = {known} (as {owner} has), got shape {value.shape}"
+            )
+
+
+def check_count(value: int, name: str, minimum: int = 1) -> None:
+    """Refuse a count (of steps, samples, repeats) that is not an integer >= `minimum`."""
+    if not isinstance(value, int) or isinstance(value, bool) or value < minimum:
+        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
 
 
 def assign_fields(module: eqx.Module, values: dict[str, Any]) -> None:
@@ -89,6 +122,7 @@ def assign_fields(module: eqx.Module, values: dict[str, Any]) -> None:
             f"it takes {', '.join(sorted(known))}"
         )
     resolved: dict[str, Any] = {}
+    sizes: dict[str, tuple[int, str]] = {}
     for field in fields:
         metadata = field.metadata
         if field.name in values:
@@ -103,9 +137,7 @@ def assign_fields(module: eqx.Module, values: dict[str, Any]) -> None:
             raise TypeError(f"{cls.__name__} needs the keyword {field.name}")
         if metadata.get("parameter"):
             value = as_parameter(value, field.name)
-            ndim = metadata.get("ndim")
-            if ndim is not None and (value.ndim != ndim or value.shape[0] < 1):
-                raise ValueError(f"{field.name} must be a one-dimensional array of at least one entry, got shape {value.shape}")
+            check_shape(value, metadata.get("shape"), field.name, sizes)
             if metadata.get("range") is not None:
                 metadata["range"].check(value, field.name)
         choices = metadata.get("choices")
@@ -131,6 +163,8 @@ __all__ = [
     "Range",
     "as_parameter",
     "assign_fields",
+    "check_count",
+    "check_shape",
     "option",
     "parameter",
 ]

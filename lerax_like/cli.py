@@ -82,7 +82,8 @@ def _solvers_from(arguments, command: str):
 
 def _study(arguments) -> int:
     from .analysis import StudyConfig, run_study, sweeps_for, write_study
-    from .analysis.report import cheapest_at, format_orders, format_table, matplotlib_available
+    from .analysis.report import VERDICT_TARGETS, cheapest_at, format_orders, format_table, matplotlib_available
+    from .analysis.verdict import verdict_line
     from .analysis.scenes import SCENES
 
     overrides = {}
@@ -103,9 +104,8 @@ def _study(arguments) -> int:
           f"{config.fit_ceiling:g}):")
     print(format_orders(result.convergence_orders()))
     print()
-    for target in (1e-3, 1e-6, 1e-9):
-        best = cheapest_at(result.rows, target)
-        verdict = "none reached it" if best is None else f"{best['label']} at {best['setting']} ({best['seconds']:.2e} s)"
+    for target in VERDICT_TARGETS:
+        verdict = verdict_line(cheapest_at(result.rows, target))
         print(f"cheapest at error <= {target:g} ({config.schedules[0]} actions): {verdict}")
     return _finish(arguments, plot, elapsed, paths)
 

@@ -26,7 +26,7 @@ from ._random import uniform
 from ._types import Array, BoolScalar, Float, Input, IntScalar, Key, Scalar, State
 from .integrate import Integrator, make_integrator
 from .physics import AbstractDynamics
-from .spaces import AbstractSpace
+from .spaces import AbstractSpace, Box
 
 
 _INTEGRATOR_KEYWORDS = ("solver", "stepsize_controller", "max_steps", "adjoint", "substeps")
@@ -120,8 +120,10 @@ def step_keys(key: Key | None, stochastic: bool) -> StepKeys:
 class AbstractEnv(eqx.Module):
     """A continuous-time control env: physics (`dynamics`), an `integrator` and a task.
 
-    A scene provides `physical_input`, `observation`, `reward`, `terminal`,
-    `initial_bounds`, `worst_reward` and the two spaces, and declares:
+    A scene provides `physical_input`, `reward`, `initial_bounds`, `worst_reward` and
+    `action_space`; `observation` (the state), `observation_space` (unbounded), `terminal`
+    (never) and `project` (identity) have defaults that a scene overrides where its task
+    differs. It declares:
 
     - `stochastic`: whether `transition`, `observation`, `reward` or `terminal` draw random
       numbers (`initial` always does). A deterministic scene's parts get `key=None` (one
@@ -182,8 +184,10 @@ class AbstractEnv(eqx.Module):
     def action_space(self) -> AbstractSpace: ...
 
     @property
-    @abc.abstractmethod
-    def observation_space(self) -> AbstractSpace: ...
+    def observation_space(self) -> AbstractSpace:
+        """Unbounded, of the state's shape, unless a scene declares it (a fully observed scene)."""
+        low, _ = self.initial_bounds
+        return Box(-jnp.inf, jnp.inf, low.shape)
 
     @property
     @abc.abstractmethod
@@ -194,9 +198,10 @@ class AbstractEnv(eqx.Module):
     def physical_input(self, action: Array) -> Input:
         """The physical input `u` (forces, torques) that `action` applies to the dynamics."""
 
-    @abc.abstractmethod
     def observation(self, state: EnvState, *, key: Key | None) -> Float[Array, "..."]:
-        """What the agent sees of `state`."""
+        """What the agent sees of `state`: the state itself, unless a scene declares otherwise."""
+        del key
+        return state.y
 
     @abc.abstractmethod
     def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
@@ -208,9 +213,14 @@ class AbstractEnv(eqx.Module):
         """A lower bound of the task's rewards for actions in the action space: a failed
         step pays it, so that breaking the solver never pays an agent."""
 
-    @abc.abstractmethod
     def terminal(self, state: EnvState, *, key: Key | None) -> BoolScalar:
-        """Whether `state` ends the episode (the task's own end, not a time limit)."""
+        """Whether `state` ends the episode (the task's own end, not a time limit).
+
+        Never, unless a scene declares an end: the episode then ends by its time limit or a
+        failed step only.
+        """
+        del state, key
+        return jnp.asarray(False)
 
     # -- built from the above ----------------------------------------------------------
 

@@ -1,5 +1,8 @@
 """Tests run in float64 with strict dtype promotion, as diffrax's own suite does."""
 
+import importlib
+import pathlib
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -8,6 +11,14 @@ import pytest
 
 jax.config.update("jax_enable_x64", True)
 jax.config.update("jax_numpy_dtype_promotion", "strict")
+
+# Scenes that tests define, as a contributor would (`tests/<name>/scene.py`, which calls
+# `lerax_like.register_scene`): imported here, before collection, so that every test
+# parametrised over `lerax_like.SCENES` covers them with no line changed elsewhere.
+TEST_SCENES = tuple(
+    importlib.import_module(f"{path.parent.name}.scene")
+    for path in sorted(pathlib.Path(__file__).parent.glob("*/scene.py"))
+)
 
 
 def tree_allclose(x, y, *, rtol=1e-12, atol=0.0) -> bool:

@@ -3,6 +3,7 @@
 import importlib.util
 import os
 import pathlib
+import re
 import subprocess
 import sys
 
@@ -34,6 +35,8 @@ def test_documentation_builds_strictly(tmp_path):
     # Every registered scene, and its physics, has its reference.
     physics = (site / "api" / "physics" / "index.html").read_text()
     for name, scene in lerax_like.SCENES.items():
+        if not scene.__module__.startswith("lerax_like."):
+            continue  # registered by a test module, not part of the package's reference
         assert f'id="{scene.__module__}.{name}"' in envs, f"scene {name} missing from the API reference"
         dynamics = type(scene().dynamics)
         assert f'id="{dynamics.__module__}.{dynamics.__name__}"' in physics, f"{dynamics.__name__} missing"
@@ -46,3 +49,82 @@ def test_every_notebook_is_in_the_documentation_nav():
     nav = (ROOT / "mkdocs.yml").read_text()
     missing = [path.name for path in (ROOT / "notebooks").glob("*.ipynb") if f"notebooks/{path.name}" not in nav]
     assert not missing, f"add to mkdocs.yml's nav: {missing}"
+
+
+# -- The page "What a new scene must declare", run as a contributor would read it ----------
+
+NEW_SCENE_PAGE = ROOT / "docs" / "new_scene.md"
+
+
+def page_code(page: pathlib.Path) -> str:
+    """The page's Python code blocks, in order, as one script."""
+    blocks = re.findall(r"^```python\n(.*?)^```", page.read_text(), flags=re.S | re.M)
+    assert blocks, f"{page.name} has no python code block"
+    return "\n".join(blocks)
+
+
+def _run(arguments, cwd, pythonpath=()):
+    # This checkout's lerax_like first, whatever the current directory.
+    paths = [*map(str, pythonpath), str(ROOT), os.environ.get("PYTHONPATH", "")]
+    env = {**os.environ, "JAX_PLATFORMS": "cpu", "PYTHONPATH": os.pathsep.join(paths)}
+    return subprocess.run([sys.executable, *arguments], cwd=cwd, capture_output=True, text=True, timeout=900, env=env)
+
+
+@pytest.mark.slow
+def test_the_new_scene_page_builds_a_working_scene(tmp_path):
+    # In a process of its own, so that the page's scene joins no registry that this
+    # process's other tests read. Checked beyond the page's own lines: the registry,
+    # errors by name, a jitted step, and a gradient through a rollout.
+    checks = """
+import equinox as eqx
+import numpy as np
+
+scene = ll.SCENES["PointMass"]
+assert scene is PointMass and scene.__final__
+for bad, name in (({"mass": -1.0}, "mass"), ({"force_mag": float("nan")}, "force_mag"), ({"mass": "heavy"}, "mass")):
+    try:
+        scene(**bad)
+    except (TypeError, ValueError) as error:
+        assert str(error).startswith(name), error
+    else:
+        raise AssertionError(f"{bad} was accepted")
+env = scene()
+state, _, _ = env.reset(key=jr.key(0))
+step = eqx.filter_jit(env.step)
+for i in range(5):
+    state, observation, reward, terminated, truncated, info = step(state, jnp.array([1.0]), key=jr.key(i))
+assert bool(info["solver_ok"]) and int(state.steps) == 5
+
+def final_speed(mass):
+    ys, _ = ll.rollout(scene(mass=mass), env.reset(key=jr.key(0))[0], jnp.ones((10, 1)))
+    return ys[-1, 1]
+
+# x_dot grows by force_mag * t / mass: d/dm at t = 0.5 s is -0.5 / m**2.
+gradient = float(jax.grad(final_speed)(2.0))
+assert abs(gradient + 0.5 / 4.0) < 1e-5, gradient
+print("ok")
+"""
+    script = tmp_path / "new_scene.py"
+    script.write_text(page_code(NEW_SCENE_PAGE) + "\n" + checks)
+    completed = _run([str(script)], cwd=tmp_path)
+    assert completed.returncode == 0 and completed.stdout.strip().endswith("ok"), completed.stderr[-4000:]
+
+
+@pytest.mark.slow
+def test_the_new_scene_page_passes_the_scene_contract(tmp_path):
+    # The page's code as a pytest plugin: imported before collection, so the contract tests,
+    # parametrised over lerax_like.SCENES, include its scene.
+    (tmp_path / "new_scene_page.py").write_text(page_code(NEW_SCENE_PAGE))
+    completed = _run(
+        ["-m", "pytest", "-p", "new_scene_page", "tests/test_scene_contract.py", "-k", "PointMass",
+         "-n", "0", "-q", "-p", "no:cacheprovider"],
+        cwd=ROOT, pythonpath=[tmp_path],
+    )
+    assert completed.returncode == 0, completed.stdout[-4000:]
+    passed = re.search(r"(\d+) passed", completed.stdout)
+    assert passed and int(passed.group(1)) >= 6, completed.stdout[-2000:]
+    assert "failed" not in completed.stdout and "error" not in completed.stdout.lower().split("passed")[-1]
+
+
+def test_the_new_scene_page_is_in_the_documentation_nav():
+    assert "new_scene.md" in (ROOT / "mkdocs.yml").read_text()

@@ -54,10 +54,10 @@ def test_alpha_order_weight_minimises_the_variance_and_guards_against_bias():
 def test_objective_gradient_matches_finite_differences():
     config = gv.GradientVarianceConfig.default("CartPole", quick=True)
     env = gv.build_env(config, "rk4")
-    y0 = gv._initial_state(env, config)
+    y0 = gv.initial_state(env, config)
     gain = jnp.asarray(gv.lqr_gain(env, config.state_weight, config.action_weight))
     for kind, theta in (("open_loop", 0.1 * jnp.sin(jnp.arange(20.0))[:, None]), ("linear_feedback", gain)):
-        f = jax.jit(gv._objective(gv.stage_costs(env, y0, kind, 20, config.state_weight, config.action_weight)))
+        f = jax.jit(gv.objective(gv.stage_costs(env, y0, kind, 20, config.state_weight, config.action_weight)))
         gradient = np.asarray(jax.jit(jax.grad(lambda t: f(t, 15)[0]))(theta)).reshape(-1)
         direction = jax.random.normal(jax.random.key(2), theta.shape, dtype=theta.dtype)
         h = 1e-5
@@ -72,7 +72,7 @@ def test_objective_gradient_matches_finite_differences():
 def test_lqr_gain_solves_the_discrete_riccati_equation():
     scipy_linalg = pytest.importorskip("scipy.linalg")
     env = gv.build_env(gv.GradientVarianceConfig.default("CartPole"), "rk4")
-    step = lambda y, a: gv._step(env, y, a)[0]  # noqa: E731
+    step = lambda y, a: gv.step_state(env, y, a)[0]  # noqa: E731
     zero_y, zero_a = jnp.zeros(4), jnp.zeros(1)
     A = np.asarray(jax.jacfwd(step)(zero_y, zero_a))
     B = np.asarray(jax.jacfwd(step, argnums=1)(zero_y, zero_a))
@@ -92,7 +92,7 @@ def test_lyapunov_exponent_of_the_upright_cart_pole_is_its_unstable_eigenvalue()
     # stretching between 2 s and 4 s gives the rate itself.
     config = gv.GradientVarianceConfig.default("CartPole", initial_state=(0.0, 0.0, 1e-9, 0.0))
     env = gv.build_env(config, "rk4")
-    y0 = gv._initial_state(env, config)
+    y0 = gv.initial_state(env, config)
     exponents = np.asarray(gv.finite_time_lyapunov(env, y0, "open_loop", jnp.zeros((200, 1)), 200))
     leading = np.max(exponents, axis=1)
     rate = (leading[199] * 4.0 - leading[99] * 2.0) / 2.0

@@ -1,13 +1,18 @@
 """The scene contract, checked for every scene in `lerax_like.SCENES`.
 
-A scene is covered here the moment it is registered: its Gymnasium-style docstring, its
-declared `stochastic` against its behaviour, construction errors that name the parameter,
-`jit`/`vmap`/`grad` through 20 steps, and energy conservation wherever its dynamics claim
-it (checked against a Dopri8 solve at rtol 1e-12, not against the scene's own solver).
+A scene is covered here the moment it is registered, the package's own and those that test
+modules register (`tests/conftest.py` imports them before collection): its Gymnasium-style
+docstring, its declared `stochastic` against its behaviour, construction errors that name
+the parameter, `jit`/`vmap`/`grad` through 20 steps, and energy conservation wherever its
+dynamics claim it (checked against a Dopri8 solve at rtol 1e-12, not against the scene's
+own solver). Nothing here counts scenes: everything is read off `lerax_like.SCENES`.
 """
 
 import dataclasses
+import importlib
 import operator
+import pkgutil
+import typing
 
 import diffrax
 import equinox as eqx
@@ -24,12 +29,60 @@ SECTIONS = ("Description", "Action Space", "Observation Space", "Rewards", "Star
 NAMES = sorted(ll.SCENES)
 
 
-def test_the_registry_holds_the_ten_scenes():
-    assert len(ll.SCENES) == 10
-    assert "PlanarQuadrotor" in ll.SCENES
+def _package_scenes():
+    """Every concrete `AbstractEnv` subclass defined in a module under `lerax_like/scenes/`."""
+    found = []
+    for module in pkgutil.iter_modules(ll.scenes.__path__, f"{ll.scenes.__name__}."):
+        for value in vars(importlib.import_module(module.name)).values():
+            if (
+                isinstance(value, type)
+                and issubclass(value, ll.AbstractEnv)
+                and value.__module__ == module.name
+                and not ll.scenes.is_abstract_scene(value)
+            ):
+                found.append(value)
+    return found
+
+
+def test_every_scene_under_scenes_is_registered():
+    # A forgotten line in `scenes/__init__.py` would otherwise leave a scene out of every
+    # test, study and Gymnasium id, silently.
+    scenes = _package_scenes()
+    assert scenes, "no scene found under lerax_like/scenes/"
+    missing = [scene.__name__ for scene in scenes if ll.SCENES.get(scene.__name__) is not scene]
+    assert not missing, f"add to _REGISTERED in lerax_like/scenes/__init__.py: {missing}"
+    # And the search finds every scene the package registers: it would see a forgotten one.
+    registered = {scene for scene in ll.SCENES.values() if scene.__module__.startswith(ll.scenes.__name__)}
+    assert registered == set(scenes)
+
+
+def test_the_registry_names_each_scene_by_its_class():
     for name, scene in ll.SCENES.items():
         assert scene.__name__ == name
-        assert getattr(ll, name) is scene  # re-exported from the one registry
+        if scene.__module__.startswith("lerax_like."):
+            assert getattr(ll, name) is scene  # the package's scenes, re-exported from the one registry
+
+
+def test_register_scene_refuses_what_is_not_a_concrete_final_scene():
+    with pytest.raises(TypeError, match="subclass of lerax_like.AbstractEnv"):
+        ll.register_scene(ll.CartPoleDynamics)
+    with pytest.raises(TypeError, match="AbstractCartPole is abstract: it does not declare action_space"):
+        ll.register_scene(ll.scenes.AbstractCartPole)
+
+    class Unmarked(ll.CartPole):  # concrete, but not @final
+        pass
+
+    with pytest.raises(TypeError, match="Unmarked must be marked @typing.final"):
+        ll.register_scene(Unmarked)
+
+    @typing.final
+    class CartPole(ll.CartPole):  # a second class under a registered name
+        pass
+
+    with pytest.raises(ValueError, match="a scene named CartPole is already registered"):
+        ll.register_scene(CartPole)
+    assert ll.SCENES["CartPole"] is ll.CartPole
+    assert ll.register_scene(ll.CartPole) is ll.CartPole  # again: nothing changes
 
 
 @pytest.mark.parametrize("name", NAMES)

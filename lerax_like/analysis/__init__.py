@@ -19,6 +19,13 @@ from .reference import (
     dense_reference_trajectories as dense_reference_trajectories,
     reference_trajectories as reference_trajectories,
 )
+from .recording import (
+    environment_record as environment_record,
+    fixed_width_table as fixed_width_table,
+    matplotlib_available as matplotlib_available,
+    pyplot as pyplot,
+    write_record as write_record,
+)
 from .report import (
     CSV_COLUMNS as CSV_COLUMNS,
     GRADIENT_CSV_COLUMNS as GRADIENT_CSV_COLUMNS,
@@ -33,6 +40,7 @@ from .report import (
     write_json as write_json,
     write_study as write_study,
 )
+from .verdict import group_settings as group_settings, timing_unresolved as timing_unresolved
 from .rollout_check import preset_rollouts as preset_rollouts
 from .scenes import SCENES as SCENES, make_scene as make_scene, reference_method as reference_method
 from .study import (

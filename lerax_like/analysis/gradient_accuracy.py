@@ -25,7 +25,7 @@ import jax.random as jr
 import numpy as np
 from jax.flatten_util import ravel_pytree
 
-from .._checks import check_count
+from .._fields import check_count
 from .._types import Array, BoolScalar, Float, Scalar, State
 from ..env import AbstractEnv, EnvState, rollout
 from ..gradients import with_adjoint

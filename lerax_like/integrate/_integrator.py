@@ -8,7 +8,7 @@ import diffrax
 import equinox as eqx
 import jax.numpy as jnp
 
-from .._checks import check_count
+from .._fields import check_count
 from .._types import Array, BoolScalar, Input, IntScalar, ScalarLike, State
 from ..gradients import warn_if_silent
 from ._controller import GuardedPIDController

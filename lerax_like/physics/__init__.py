@@ -9,6 +9,7 @@ from .acrobot import AcrobotDynamics as AcrobotDynamics
 from .cartpole import CartPoleDynamics as CartPoleDynamics
 from .mountain_car import MountainCarDynamics as MountainCarDynamics
 from .pendulum import PendulumDynamics as PendulumDynamics
+from .planar_quadrotor import PlanarQuadrotorDynamics as PlanarQuadrotorDynamics
 from .van_der_pol import VanDerPolDynamics as VanDerPolDynamics
 from .chain import (
     CartChainDynamics as CartChainDynamics,

@@ -1,6 +1,5 @@
-from typing import ClassVar, Literal
+from typing import ClassVar, Literal, final
 
-import equinox as eqx
 import jax.numpy as jnp
 
 from .._fields import POSITIVE, option, parameter
@@ -8,6 +7,7 @@ from .._types import Input, Scalar, ScalarLike, State
 from ._base import AbstractConservativeDynamics
 
 
+@final
 class AcrobotDynamics(AbstractConservativeDynamics):
     """Two links in a vertical plane, hinged in series, with a torque `u[0]` at the elbow only.
 

@@ -1,4 +1,4 @@
-from typing import ClassVar
+from typing import ClassVar, final
 
 import jax.numpy as jnp
 
@@ -7,6 +7,7 @@ from .._types import Array, Float, Input, Scalar, ScalarLike, State
 from ._base import AbstractChainDynamics
 
 
+@final
 class CartPoleDynamics(AbstractChainDynamics):
     """A cart on a frictionless rail with a uniform pole hinged on it.
 

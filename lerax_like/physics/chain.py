@@ -21,24 +21,19 @@ the kinetic energy is `T = 1/2 q'^T M q'` with `M_thth[i, j] = A_ij cos(theta_i 
 masses and lengths are differentiable leaves.
 """
 
-from typing import ClassVar
+from typing import ClassVar, final
 
 import jax.numpy as jnp
 import numpy as np
 
-from .._checks import as_parameter, check_positive
+from .._fields import POSITIVE, parameter
 from .._types import Array, Float, Input, Scalar, ScalarLike, State
 from ._base import AbstractChainDynamics
 
 
-def _link_parameter(value, name: str, n: int | None = None) -> Float[Array, " n"]:
-    check_positive(value, name)
-    array = as_parameter(value, name)
-    if array.ndim != 1 or array.shape[0] < 1:
-        raise ValueError(f"{name} must be a one-dimensional array of at least one link, got shape {array.shape}")
-    if n is not None and array.shape[0] != n:
-        raise ValueError(f"{name} must have shape ({n},), got {array.shape}")
-    return array
+def _link_parameter(default: tuple[float, ...]):
+    """A per-link parameter: one positive entry per link, as many as every other per-link one."""
+    return parameter(default, POSITIVE, shape=("n",))
 
 
 def _moments(masses: Float[Array, " n"], lengths: Float[Array, " n"]):
@@ -106,6 +101,7 @@ def _lagrange_derivative(dynamics, y: State, forces: Float[Array, " q"]) -> Stat
     return jnp.concatenate([velocities, accelerations])
 
 
+@final
 class NLinkPendulumDynamics(AbstractChainDynamics):
     """n uniform rods in a chain from a fixed pivot, with a torque at every joint.
 
@@ -118,15 +114,9 @@ class NLinkPendulumDynamics(AbstractChainDynamics):
     velocity_indices: ClassVar[None] = None  # the layout depends on the number of links
     has_cart: ClassVar[bool] = False
 
-    masses: Float[Array, " n"]
-    lengths: Float[Array, " n"]
-    gravity: Scalar
-
-    def __init__(self, masses=(1.0, 1.0, 1.0), lengths=(1.0, 1.0, 1.0), gravity: ScalarLike = 9.81):
-        self.masses = _link_parameter(masses, "masses")
-        self.lengths = _link_parameter(lengths, "lengths", self.masses.shape[0])
-        check_positive(gravity, "gravity")
-        self.gravity = as_parameter(gravity, "gravity")
+    masses: Float[Array, " n"] = _link_parameter((1.0, 1.0, 1.0))
+    lengths: Float[Array, " n"] = _link_parameter((1.0, 1.0, 1.0))
+    gravity: Scalar = parameter(9.81, POSITIVE)
 
     @property
     def n_links(self) -> int:
@@ -159,6 +149,7 @@ class NLinkPendulumDynamics(AbstractChainDynamics):
         return kinetic + chain_potential_energy(self.masses, self.lengths, self.gravity, y[:n])
 
 
+@final
 class CartChainDynamics(AbstractChainDynamics):
     """A cart on a frictionless rail with a chain of n uniform poles hinged on it.
 
@@ -173,24 +164,10 @@ class CartChainDynamics(AbstractChainDynamics):
     velocity_indices: ClassVar[None] = None  # the layout depends on the number of links
     has_cart: ClassVar[bool] = True
 
-    cart_mass: Scalar
-    pole_masses: Float[Array, " n"]
-    pole_lengths: Float[Array, " n"]
-    gravity: Scalar
-
-    def __init__(
-        self,
-        cart_mass: ScalarLike = 1.0,
-        pole_masses=(0.1, 0.1),
-        pole_lengths=(1.0, 1.0),
-        gravity: ScalarLike = 9.81,
-    ):
-        check_positive(cart_mass, "cart_mass")
-        self.cart_mass = as_parameter(cart_mass, "cart_mass")
-        self.pole_masses = _link_parameter(pole_masses, "pole_masses")
-        self.pole_lengths = _link_parameter(pole_lengths, "pole_lengths", self.pole_masses.shape[0])
-        check_positive(gravity, "gravity")
-        self.gravity = as_parameter(gravity, "gravity")
+    cart_mass: Scalar = parameter(1.0, POSITIVE)
+    pole_masses: Float[Array, " n"] = _link_parameter((0.1, 0.1))
+    pole_lengths: Float[Array, " n"] = _link_parameter((1.0, 1.0))
+    gravity: Scalar = parameter(9.81, POSITIVE)
 
     @property
     def n_links(self) -> int:

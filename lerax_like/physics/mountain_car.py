@@ -1,4 +1,4 @@
-from typing import ClassVar
+from typing import ClassVar, final
 
 import jax.numpy as jnp
 
@@ -7,6 +7,7 @@ from .._types import Input, Scalar, ScalarLike, State
 from ._base import AbstractConservativeDynamics
 
 
+@final
 class MountainCarDynamics(AbstractConservativeDynamics):
     """A car on the hill `h(x) = sin(3x) / 3`, in Moore's (1990) unitless units.
 

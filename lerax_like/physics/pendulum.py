@@ -1,4 +1,4 @@
-from typing import ClassVar
+from typing import ClassVar, final
 
 import jax.numpy as jnp
 
@@ -7,6 +7,7 @@ from .._types import Input, Scalar, ScalarLike, State
 from ._base import AbstractConservativeDynamics
 
 
+@final
 class PendulumDynamics(AbstractConservativeDynamics):
     """A uniform rod of mass `mass` and length `length` on a frictionless pivot at one end.
 

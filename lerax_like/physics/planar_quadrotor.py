@@ -1,6 +1,6 @@
 """A quadrotor in the vertical plane: a rigid body with two rotors at the ends of its arm."""
 
-from typing import ClassVar
+from typing import ClassVar, final
 
 import jax.numpy as jnp
 
@@ -9,6 +9,7 @@ from .._types import Input, Scalar, ScalarLike, State
 from ._base import AbstractConservativeDynamics
 
 
+@final
 class PlanarQuadrotorDynamics(AbstractConservativeDynamics):
     """A planar quadrotor: a rigid body of `mass` and `moment_of_inertia` about its centre,
     with two rotors at `arm_length` either side of the centre, each thrusting along the

@@ -1,4 +1,4 @@
-from typing import ClassVar
+from typing import ClassVar, final
 
 import jax.numpy as jnp
 
@@ -7,6 +7,7 @@ from .._types import Input, Scalar, ScalarLike, State
 from ._base import AbstractDynamics
 
 
+@final
 class VanDerPolDynamics(AbstractDynamics):
     """The forced Van der Pol oscillator (van der Pol, 1926).
 

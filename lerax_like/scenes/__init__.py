@@ -1,9 +1,9 @@
 """Scenes: a physics module, an integrator and a task (spaces, reward, termination).
 
 `SCENES` is the registry that the command line, the studies, the Gymnasium layer and the
-tests read: one line per scene below. A new scene is its physics module, its scene module
-and one line here; the contract tests (`tests/test_scene_contract.py`) cover it from then
-on, and `lerax-like study NAME` runs it.
+tests read. The package's scenes are its lines below; a scene defined elsewhere (a user's,
+a test's) joins with `register_scene`. The contract tests (`tests/test_scene_contract.py`)
+cover every registered scene, and `lerax-like study NAME` runs it.
 """
 
 import importlib
@@ -34,14 +34,58 @@ def _load(path: str) -> type[AbstractEnv]:
     return getattr(importlib.import_module(f"{__name__}.{module}"), name)
 
 
-SCENES: Mapping[str, type[AbstractEnv]] = MappingProxyType(
-    {scene.__name__: scene for scene in map(_load, _REGISTERED)}
-)
-"""Scene name -> scene class, as `lerax-like study NAME` and the tests spell it."""
+_SCENES: dict[str, type[AbstractEnv]] = {}
+
+SCENES: Mapping[str, type[AbstractEnv]] = MappingProxyType(_SCENES)
+"""Scene name -> scene class, as `lerax-like study NAME` and the tests spell it (read-only:
+`register_scene` adds to it)."""
+
+
+def _abstract_parts(scene: type) -> list[str]:
+    """What `scene` leaves abstract: methods, and Equinox's abstract fields and class variables."""
+    parts = set(getattr(scene, "__abstractmethods__", ()))
+    parts |= set(getattr(scene, "__abstractvars__", ())) | set(getattr(scene, "__abstractclassvars__", ()))
+    return sorted(parts)
+
+
+def is_abstract_scene(scene: type) -> bool:
+    """Whether `scene` leaves anything abstract (so it can be subclassed but not built)."""
+    return bool(_abstract_parts(scene))
+
+
+def register_scene(scene: type[AbstractEnv]) -> type[AbstractEnv]:
+    """Add `scene` to `SCENES` under its class name, and return it (so it serves as a decorator).
+
+    The scene must be a concrete (`@typing.final`) subclass of `AbstractEnv` that implements
+    every abstract method; a name already registered for another class is refused.
+    Registering the same class again changes nothing.
+    """
+    if not (isinstance(scene, type) and issubclass(scene, AbstractEnv)):
+        raise TypeError(f"scene must be a subclass of lerax_like.AbstractEnv, got {scene!r}")
+    name = scene.__name__
+    missing = _abstract_parts(scene)
+    if missing:
+        raise TypeError(f"scene {name} is abstract: it does not declare {', '.join(missing)}")
+    if not vars(scene).get("__final__", False):  # its own mark, not a final base's
+        raise TypeError(f"scene {name} must be marked @typing.final (a concrete scene is final)")
+    registered = _SCENES.get(name)
+    if registered is not None and registered is not scene:
+        raise ValueError(
+            f"a scene named {name} is already registered ({registered.__module__}.{name}); "
+            f"give {scene.__module__}.{name} another class name"
+        )
+    _SCENES[name] = scene
+    return scene
+
+
+for _path in _REGISTERED:
+    register_scene(_load(_path))
+del _path
 
 globals().update(SCENES)
 
 from .cartpole import AbstractCartPole as AbstractCartPole  # noqa: E402
 from .mountain_car import AbstractMountainCar as AbstractMountainCar  # noqa: E402
+from ._unit_action import AbstractUnitActionEnv as AbstractUnitActionEnv  # noqa: E402
 
-__all__ = ["SCENES", "AbstractCartPole", "AbstractMountainCar", *SCENES]
+__all__ = ["SCENES", "AbstractCartPole", "AbstractMountainCar", "AbstractUnitActionEnv", "is_abstract_scene", "register_scene", *SCENES]

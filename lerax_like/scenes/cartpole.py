@@ -1,7 +1,6 @@
 import math
 from typing import ClassVar, Literal, final
 
-import equinox as eqx
 import jax.numpy as jnp
 
 from .._fields import NONNEGATIVE, POSITIVE, POSITIVE_OR_INF, option, parameter
@@ -12,21 +11,31 @@ from ..physics import CartPoleDynamics
 from ..physics.contact import Walls
 from ..physics.forces import EndStops, JointDamping
 from ..spaces import Box, Discrete
+from ._unit_action import AbstractUnitActionEnv
 
 
 _TWELVE_DEGREES = 12 * 2 * math.pi / 360
 
 
 class AbstractCartPole(AbstractEnv):
-    """What the discrete and continuous cart-poles share: physics, add-ons, start, observation, end."""
+    """What the discrete and continuous cart-poles share: physics, add-ons, start, observation, end.
+
+    The fields both declare are declared here, once; each concrete cart-pole adds the
+    fields of its own action and reward.
+    """
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
     addons: ClassVar[tuple[type, ...]] = (JointDamping, EndStops, Walls)
 
-    dynamics: eqx.AbstractVar[CartPoleDynamics]
-    force_mag: eqx.AbstractVar[Scalar]
-    theta_threshold_radians: eqx.AbstractVar[Scalar]
-    x_threshold: eqx.AbstractVar[Scalar]
+    dynamics: CartPoleDynamics = dynamics(CartPoleDynamics)
+    integrator: Integrator = integrator("euler")
+    forces: tuple = ()
+    contacts: tuple = ()
+    force_mag: Scalar = parameter(10.0, POSITIVE)
+    theta_threshold_radians: Scalar = parameter(_TWELVE_DEGREES, POSITIVE_OR_INF)
+    x_threshold: Scalar = parameter(2.4, POSITIVE_OR_INF)
+    dt: Scalar = time_step(0.02)
+    max_episode_steps: int | None = episode_limit(500)
 
     @property
     def observation_space(self) -> Box:
@@ -36,10 +45,6 @@ class AbstractCartPole(AbstractEnv):
     @property
     def initial_bounds(self) -> tuple[Array, Array]:
         return jnp.full(4, -0.05, self.dt.dtype), jnp.full(4, 0.05, self.dt.dtype)
-
-    def observation(self, state: EnvState, *, key: Key | None) -> Array:
-        del key
-        return state.y
 
     def terminal(self, state: EnvState, *, key: Key | None) -> BoolScalar:
         del key
@@ -123,15 +128,6 @@ class CartPole(AbstractCartPole):
         attributes=_CARTPOLE_ATTRIBUTES,
     )
 
-    dynamics: CartPoleDynamics = dynamics(CartPoleDynamics)
-    integrator: Integrator = integrator("euler")
-    forces: tuple = ()
-    contacts: tuple = ()
-    force_mag: Scalar = parameter(10.0, POSITIVE)
-    theta_threshold_radians: Scalar = parameter(_TWELVE_DEGREES, POSITIVE_OR_INF)
-    x_threshold: Scalar = parameter(2.4, POSITIVE_OR_INF)
-    dt: Scalar = time_step(0.02)
-    max_episode_steps: int | None = episode_limit(500)
     sutton_barto_reward: bool = option(False, (False, True))
 
     @property
@@ -155,7 +151,7 @@ class CartPole(AbstractCartPole):
 
 
 @final
-class CartPoleContinuous(AbstractCartPole):
+class CartPoleContinuous(AbstractCartPole, AbstractUnitActionEnv):
     """CartPole with a continuous force: action `a` in `[-1, 1]` pushes with `a * force_mag` newtons.
 
     ## Description
@@ -185,25 +181,13 @@ class CartPoleContinuous(AbstractCartPole):
 
     # `reward` is the keyword users know; the field is `reward_kind`, as `reward` is the method.
     aliases: ClassVar[tuple[tuple[str, str], ...]] = (("reward", "reward_kind"),)
+    action_size: ClassVar[int] = 1
 
-    dynamics: CartPoleDynamics = dynamics(CartPoleDynamics)
-    integrator: Integrator = integrator("euler")
-    forces: tuple = ()
-    contacts: tuple = ()
-    force_mag: Scalar = parameter(10.0, POSITIVE)
-    theta_threshold_radians: Scalar = parameter(_TWELVE_DEGREES, POSITIVE_OR_INF)
-    x_threshold: Scalar = parameter(2.4, POSITIVE_OR_INF)
     action_cost: Scalar = parameter(1e-3, NONNEGATIVE)
-    dt: Scalar = time_step(0.02)
-    max_episode_steps: int | None = episode_limit(500)
     reward_kind: Literal["gymnasium", "smooth"] = option("gymnasium", ("gymnasium", "smooth"))
 
-    @property
-    def action_space(self) -> Box:
-        return Box(-1.0, 1.0, (1,))
-
     def physical_input(self, action: Array) -> Input:
-        return self.force_mag * jnp.clip(jnp.reshape(action, (1,)), -1.0, 1.0)
+        return self.force_mag * self.clipped(action)
 
     def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
         del state, key

@@ -5,12 +5,12 @@ import jax.numpy as jnp
 
 from .._fields import NONNEGATIVE, POSITIVE, POSITIVE_OR_INF, option, parameter
 from .._types import Array, BoolScalar, Input, Key, Scalar
-from ..env import AbstractEnv, EnvState, dynamics, episode_limit, integrator, time_step
+from ..env import EnvState, dynamics, episode_limit, integrator, time_step
 from ..integrate import Integrator
 from ..physics.chain import CartChainDynamics
 from ..physics.contact import Walls
 from ..physics.forces import EndStops, JointDamping
-from ..spaces import Box
+from ._unit_action import AbstractUnitActionEnv
 
 
 def _track_default(values) -> float:
@@ -18,7 +18,7 @@ def _track_default(values) -> float:
 
 
 @final
-class DoubleCartPole(AbstractEnv):
+class DoubleCartPole(AbstractUnitActionEnv):
     """Balance, or swing up, two poles in a chain on a cart by pushing the cart.
 
     ## Description
@@ -70,6 +70,7 @@ class DoubleCartPole(AbstractEnv):
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
     addons: ClassVar[tuple[type, ...]] = (JointDamping, EndStops, Walls)
+    action_size: ClassVar[int] = 1
 
     task: Literal["balance", "swing_up"] = option("balance", ("balance", "swing_up"))
     dynamics: CartChainDynamics = dynamics(CartChainDynamics)
@@ -84,14 +85,6 @@ class DoubleCartPole(AbstractEnv):
     max_episode_steps: int | None = episode_limit(500)
 
     @property
-    def action_space(self) -> Box:
-        return Box(-1.0, 1.0, (1,))
-
-    @property
-    def observation_space(self) -> Box:
-        return Box(-jnp.inf, jnp.inf, (6,))
-
-    @property
     def initial_bounds(self) -> tuple[Array, Array]:
         centre = jnp.zeros(6, self.dt.dtype)
         if self.task == "swing_up":
@@ -99,17 +92,13 @@ class DoubleCartPole(AbstractEnv):
         return centre - 0.05, centre + 0.05
 
     def physical_input(self, action: Array) -> Input:
-        return self.force_mag * jnp.clip(jnp.reshape(action, (1,)), -1.0, 1.0)
-
-    def observation(self, state: EnvState, *, key: Key | None) -> Array:
-        del key
-        return state.y
+        return self.force_mag * self.clipped(action)
 
     def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
         del state, key
         if self.task == "balance":
             return jnp.ones((), dtype=self.dt.dtype)
-        clipped = jnp.clip(jnp.reshape(action, (1,)), -1.0, 1.0)[0]
+        clipped = self.clipped(action)[0]
         _, theta1, theta2 = next_state.y[:3]
         return (jnp.cos(theta1) + jnp.cos(theta2)) / 2 - self.action_cost * clipped**2
 

@@ -10,6 +10,7 @@ from ..env import AbstractEnv, EnvState, GymnasiumSpec, dynamics, episode_limit,
 from ..integrate import Integrator
 from ..physics import MountainCarDynamics
 from ..spaces import Box, Discrete
+from ._unit_action import AbstractUnitActionEnv
 
 
 def _road_attributes(engine: str) -> tuple[tuple[str, str], ...]:
@@ -19,16 +20,22 @@ def _road_attributes(engine: str) -> tuple[tuple[str, str], ...]:
 
 
 class AbstractMountainCar(AbstractEnv):
-    """What the discrete and continuous mountain cars share: road, start, projection, goal."""
+    """What the discrete and continuous mountain cars share: road, start, projection, goal.
+
+    The fields both declare with the same defaults are declared here, once; each concrete
+    car adds its engine, its goal position and its episode limit.
+    """
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
 
-    dynamics: eqx.AbstractVar[MountainCarDynamics]
-    min_position: eqx.AbstractVar[Scalar]
-    max_position: eqx.AbstractVar[Scalar]
-    max_speed: eqx.AbstractVar[Scalar]
+    dynamics: MountainCarDynamics = dynamics(MountainCarDynamics)
+    integrator: Integrator = integrator("semi_implicit_euler")
+    min_position: Scalar = parameter(-1.2, FINITE)
+    max_position: Scalar = parameter(0.6, FINITE)
+    max_speed: Scalar = parameter(0.07, POSITIVE_OR_INF)
+    goal_velocity: Scalar = parameter(0.0, FINITE)
+    dt: Scalar = time_step(1.0)
     goal_position: eqx.AbstractVar[Scalar]
-    goal_velocity: eqx.AbstractVar[Scalar]
 
     @property
     def observation_space(self) -> Box:
@@ -49,10 +56,6 @@ class AbstractMountainCar(AbstractEnv):
         velocity = jnp.clip(y[1], -self.max_speed, self.max_speed)
         velocity = jnp.where((position == self.min_position) & (velocity < 0), 0.0, velocity)
         return jnp.stack([position, velocity])
-
-    def observation(self, state: EnvState, *, key: Key | None) -> Array:
-        del key
-        return state.y
 
     def terminal(self, state: EnvState, *, key: Key | None) -> BoolScalar:
         del key
@@ -112,15 +115,8 @@ class MountainCar(AbstractMountainCar):
         attributes=_road_attributes("force"),
     )
 
-    dynamics: MountainCarDynamics = dynamics(MountainCarDynamics)
-    integrator: Integrator = integrator("semi_implicit_euler")
     force: Scalar = parameter(0.001, POSITIVE)
-    min_position: Scalar = parameter(-1.2, FINITE)
-    max_position: Scalar = parameter(0.6, FINITE)
-    max_speed: Scalar = parameter(0.07, POSITIVE_OR_INF)
     goal_position: Scalar = parameter(0.5, FINITE)
-    goal_velocity: Scalar = parameter(0.0, FINITE)
-    dt: Scalar = time_step(1.0)
     max_episode_steps: int | None = episode_limit(200)
 
     @property
@@ -140,7 +136,7 @@ class MountainCar(AbstractMountainCar):
 
 
 @final
-class MountainCarContinuous(AbstractMountainCar):
+class MountainCarContinuous(AbstractMountainCar, AbstractUnitActionEnv):
     """Drive an underpowered car up a hill with a continuous throttle (MountainCarContinuous-v0).
 
     ## Description
@@ -151,14 +147,13 @@ class MountainCarContinuous(AbstractMountainCar):
     `Box(-1, 1, (1,))`: the throttle.
 
     ## Observation Space
-    `[position, velocity]`, within `[min_position, max_position] x [-max_speed, max_speed]`.
+    As `MountainCar`.
 
     ## Starting State
-    Position uniform in `[-0.6, -0.4]`, velocity 0.
+    As `MountainCar`.
 
     ## Episode End
-    Terminated when `position >= goal_position` and `velocity >= goal_velocity`, or when
-    the integration fails (`info["solver_ok"]`). Truncated after `max_episode_steps`.
+    As `MountainCar`.
 
     ## Rewards
     `-0.1 * action**2` every step (on the action as given, before clipping, as Gymnasium
@@ -178,24 +173,14 @@ class MountainCarContinuous(AbstractMountainCar):
         renderer="gymnasium.envs.classic_control.continuous_mountain_car:Continuous_MountainCarEnv",
         attributes=_road_attributes("power"),
     )
+    action_size: ClassVar[int] = 1
 
-    dynamics: MountainCarDynamics = dynamics(MountainCarDynamics)
-    integrator: Integrator = integrator("semi_implicit_euler")
     power: Scalar = parameter(0.0015, POSITIVE)
-    min_position: Scalar = parameter(-1.2, FINITE)
-    max_position: Scalar = parameter(0.6, FINITE)
-    max_speed: Scalar = parameter(0.07, POSITIVE_OR_INF)
     goal_position: Scalar = parameter(0.45, FINITE)
-    goal_velocity: Scalar = parameter(0.0, FINITE)
-    dt: Scalar = time_step(1.0)
     max_episode_steps: int | None = episode_limit(999)
 
-    @property
-    def action_space(self) -> Box:
-        return Box(-1.0, 1.0, (1,))
-
     def physical_input(self, action: Array) -> Input:
-        return self.power * jnp.clip(jnp.reshape(action, (1,)), -1.0, 1.0)
+        return self.power * self.clipped(action)
 
     def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
         del state

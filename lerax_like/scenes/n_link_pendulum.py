@@ -4,15 +4,15 @@ from typing import ClassVar, final
 import jax.numpy as jnp
 
 from .._fields import NONNEGATIVE, parameter
-from .._types import Array, BoolScalar, Input, Key, Scalar
-from ..env import AbstractEnv, EnvState, dynamics, episode_limit, integrator, time_step
+from .._types import Array, Input, Key, Scalar
+from ..env import EnvState, dynamics, episode_limit, integrator, time_step
 from ..integrate import Integrator
 from ..physics.chain import NLinkPendulumDynamics
-from ..spaces import Box
+from ._unit_action import AbstractUnitActionEnv
 
 
 @final
-class NLinkPendulum(AbstractEnv):
+class NLinkPendulum(AbstractUnitActionEnv):
     """A chain of n uniform rods hanging from a fixed pivot, with a motor at every joint.
 
     ## Description
@@ -63,12 +63,8 @@ class NLinkPendulum(AbstractEnv):
         return self.dynamics.n_links
 
     @property
-    def action_space(self) -> Box:
-        return Box(-1.0, 1.0, (self.n_links,))
-
-    @property
-    def observation_space(self) -> Box:
-        return Box(-jnp.inf, jnp.inf, (2 * self.n_links,))
+    def action_size(self) -> int:
+        return self.n_links
 
     @property
     def initial_bounds(self) -> tuple[Array, Array]:
@@ -77,21 +73,13 @@ class NLinkPendulum(AbstractEnv):
         return -high, high
 
     def physical_input(self, action: Array) -> Input:
-        return self.max_torque * jnp.clip(jnp.reshape(action, (self.n_links,)), -1.0, 1.0)
-
-    def observation(self, state: EnvState, *, key: Key | None) -> Array:
-        del key
-        return state.y
+        return self.max_torque * self.clipped(action)
 
     def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
         del state, key
-        clipped = jnp.clip(jnp.reshape(action, (self.n_links,)), -1.0, 1.0)
+        clipped = self.clipped(action)
         return jnp.mean(jnp.cos(next_state.y[: self.n_links])) - self.action_cost * jnp.sum(clipped**2)
 
     @property
     def worst_reward(self) -> Scalar:
         return -1.0 - self.action_cost * self.n_links
-
-    def terminal(self, state: EnvState, *, key: Key | None) -> BoolScalar:
-        del state, key
-        return jnp.asarray(False)

@@ -3,7 +3,7 @@ from typing import ClassVar, final
 import jax.numpy as jnp
 
 from .._fields import POSITIVE, POSITIVE_OR_INF, parameter
-from .._types import Array, BoolScalar, Input, Key, Scalar, State
+from .._types import Array, Input, Key, Scalar, State
 from ..env import AbstractEnv, EnvState, GymnasiumSpec, dynamics, episode_limit, integrator, time_step
 from ..integrate import Integrator
 from ..physics import PendulumDynamics
@@ -109,7 +109,3 @@ class Pendulum(AbstractEnv):
     def worst_reward(self) -> Scalar:
         # The cost is largest hanging down at full speed and full torque: -16.27 by default.
         return -(jnp.pi**2 + 0.1 * self.max_speed**2 + 0.001 * self.max_torque**2)
-
-    def terminal(self, state: EnvState, *, key: Key | None) -> BoolScalar:
-        del state, key
-        return jnp.asarray(False)

@@ -5,14 +5,14 @@ import jax.numpy as jnp
 
 from .._fields import NONNEGATIVE, POSITIVE, parameter
 from .._types import Array, BoolScalar, Input, Key, Scalar
-from ..env import AbstractEnv, EnvState, dynamics, episode_limit, integrator, time_step
+from ..env import EnvState, dynamics, episode_limit, integrator, time_step
 from ..integrate import Integrator
 from ..physics.planar_quadrotor import PlanarQuadrotorDynamics
-from ..spaces import Box
+from ._unit_action import AbstractUnitActionEnv
 
 
 @final
-class PlanarQuadrotor(AbstractEnv):
+class PlanarQuadrotor(AbstractUnitActionEnv):
     """Hold a planar quadrotor hovering at the origin with its two rotors' thrusts.
 
     ## Description
@@ -50,6 +50,7 @@ class PlanarQuadrotor(AbstractEnv):
     """
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
+    action_size: ClassVar[int] = 2
 
     dynamics: PlanarQuadrotorDynamics = dynamics(PlanarQuadrotorDynamics)
     integrator: Integrator = integrator("rk4")
@@ -60,32 +61,20 @@ class PlanarQuadrotor(AbstractEnv):
     max_episode_steps: int | None = episode_limit(500)
 
     @property
-    def action_space(self) -> Box:
-        return Box(-1.0, 1.0, (2,))
-
-    @property
-    def observation_space(self) -> Box:
-        return Box(-jnp.inf, jnp.inf, (6,))
-
-    @property
     def initial_bounds(self) -> tuple[Array, Array]:
         high = jnp.array([0.5, 0.5, 0.1, 0.1, 0.1, 0.1], self.dt.dtype)
         return -high, high
 
     def physical_input(self, action: Array) -> Input:
         hover = self.dynamics.mass * self.dynamics.gravity / 2
-        return hover * (1.0 + jnp.clip(jnp.reshape(action, (2,)), -1.0, 1.0))
-
-    def observation(self, state: EnvState, *, key: Key | None) -> Array:
-        del key
-        return state.y
+        return hover * (1.0 + self.clipped(action))
 
     def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
         del state, key
         limit = self.position_limit
         position = jnp.clip(next_state.y[:2], -limit, limit)
         theta = jnp.clip(next_state.y[2], -self.theta_limit, self.theta_limit)
-        effort = jnp.mean(jnp.clip(jnp.reshape(action, (2,)), -1.0, 1.0) ** 2)
+        effort = jnp.mean(self.clipped(action) ** 2)
         return (
             1.0
             - jnp.sum(position**2) / (4 * limit**2)

@@ -3,18 +3,18 @@ from typing import ClassVar, final
 import jax.numpy as jnp
 
 from .._fields import NONNEGATIVE, POSITIVE, parameter
-from .._types import Array, BoolScalar, Input, Key, Scalar
-from ..env import AbstractEnv, EnvState, dynamics, episode_limit, integrator, time_step
+from .._types import Array, Input, Key, Scalar
+from ..env import EnvState, dynamics, episode_limit, integrator, time_step
 from ..integrate import Integrator
 from ..physics import VanDerPolDynamics
-from ..spaces import Box
+from ._unit_action import AbstractUnitActionEnv
 
 
 _ERROR_CAP = 100.0
 
 
 @final
-class VanDerPol(AbstractEnv):
+class VanDerPol(AbstractUnitActionEnv):
     """Hold a forced Van der Pol oscillator at a target amplitude; stiff for large `mu`.
 
     ## Description
@@ -56,6 +56,7 @@ class VanDerPol(AbstractEnv):
     stochastic: ClassVar[bool] = False  # nothing random but the start
     # Stiff from mu of about 100: the studies take their reference from SciPy's Radau.
     stiff: ClassVar[bool] = True
+    action_size: ClassVar[int] = 1
 
     dynamics: VanDerPolDynamics = dynamics(VanDerPolDynamics)
     integrator: Integrator = integrator("tsit5")
@@ -66,36 +67,20 @@ class VanDerPol(AbstractEnv):
     max_episode_steps: int | None = episode_limit(200)
 
     @property
-    def action_space(self) -> Box:
-        return Box(-1.0, 1.0, (1,))
-
-    @property
-    def observation_space(self) -> Box:
-        return Box(-jnp.inf, jnp.inf, (2,))
-
-    @property
     def initial_bounds(self) -> tuple[Array, Array]:
         return jnp.full(2, -0.5, self.dt.dtype), jnp.full(2, 0.5, self.dt.dtype)
 
     def physical_input(self, action: Array) -> Input:
-        return self.force_mag * jnp.clip(jnp.reshape(action, (1,)), -1.0, 1.0)
-
-    def observation(self, state: EnvState, *, key: Key | None) -> Array:
-        del key
-        return state.y
+        return self.force_mag * self.clipped(action)
 
     def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
         del state, key
         x, v = next_state.y
         radius = jnp.sqrt(x**2 + v**2)
-        effort = jnp.sum(jnp.clip(jnp.reshape(action, (1,)), -1.0, 1.0) ** 2)
+        effort = jnp.sum(self.clipped(action) ** 2)
         error = jnp.minimum(jnp.abs(radius - self.target_amplitude), _ERROR_CAP)
         return -(error**2) - self.action_cost * effort
 
     @property
     def worst_reward(self) -> Scalar:
         return -(_ERROR_CAP**2) - self.action_cost
-
-    def terminal(self, state: EnvState, *, key: Key | None) -> BoolScalar:
-        del state, key
-        return jnp.asarray(False)

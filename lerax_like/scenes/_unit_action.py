@@ -1,0 +1,35 @@
+"""Continuous actions in the unit box: what the continuous scenes share."""
+
+import abc
+
+import jax.numpy as jnp
+
+from .._types import Array, Float
+from ..env import AbstractEnv
+from ..spaces import Box
+
+
+class AbstractUnitActionEnv(AbstractEnv):
+    """A scene whose action is a vector in `[-1, 1]^n`, clipped to that box before it acts.
+
+    The convention of Gymnasium's continuous control tasks: an agent's output is scaled
+    once, by the scene, to a force, a torque or a thrust. The scene declares `action_size`
+    (`n`; a class variable, or a property where it depends on the instance) and maps
+    `clipped(action)` to its physical input in `physical_input`.
+    """
+
+    @property
+    @abc.abstractmethod
+    def action_size(self) -> int:
+        """The number of entries of an action."""
+
+    @property
+    def action_space(self) -> Box:
+        return Box(-1.0, 1.0, (self.action_size,))
+
+    def clipped(self, action: Array) -> Float[Array, " n"]:
+        """`action` clipped to `[-1, 1]` entry by entry, as the physics and the rewards read it."""
+        return jnp.clip(jnp.reshape(action, (self.action_size,)), -1.0, 1.0)
+
+
+__all__ = ["AbstractUnitActionEnv"]

@@ -1,0 +1,72 @@
+"""Hold a damped spring-mass at rest at the origin with a bounded force."""
+
+from typing import ClassVar, final
+
+import jax
+import jax.numpy as jnp
+
+import lerax_like as ll
+from lerax_like import NONNEGATIVE, POSITIVE, EnvState, parameter
+from lerax_like.env import dynamics, episode_limit, integrator, time_step
+
+from .physics import SpringMassDynamics
+
+
+_ERROR_CAP = 10.0
+
+
+@ll.register_scene
+@final
+class SpringMass(ll.AbstractUnitActionEnv):
+    """Hold a damped spring-mass at rest at the origin with a bounded force.
+
+    ## Description
+    A mass on a spring with a damper (`SpringMassDynamics`); each step integrates it over
+    `dt` with the chosen solver (`"tsit5"` by default).
+
+    ## Action Space
+    `Box(-1, 1, (1,))`, clipped to that range; the force is `force_mag * action` newtons.
+
+    ## Observation Space
+    The state `[x, x_dot]`, unbounded.
+
+    ## Rewards
+    `-min(x^2 + x_dot^2, 100) - action_cost * a^2` after the step, `a` the clipped action.
+
+    ## Starting State
+    `x` and `x_dot` uniform in `(-1, 1)`.
+
+    ## Episode End
+    Never terminated but by a failed integration (`info["solver_ok"]`); truncated after
+    `max_episode_steps` (200) steps.
+
+    ## Arguments
+    `dynamics` (a `SpringMassDynamics`) or `mass`, `stiffness`, `damping` flat;
+    `force_mag`, `action_cost`, `dt`, `integrator` or `solver`, `max_episode_steps`.
+    """
+
+    stochastic: ClassVar[bool] = False  # nothing random but the start
+    action_size: ClassVar[int] = 1
+
+    dynamics: SpringMassDynamics = dynamics(SpringMassDynamics)
+    integrator: ll.Integrator = integrator("tsit5")
+    force_mag: jax.Array = parameter(1.0, POSITIVE)
+    action_cost: jax.Array = parameter(1e-2, NONNEGATIVE)
+    dt: jax.Array = time_step(0.05)
+    max_episode_steps: int | None = episode_limit(200)
+
+    @property
+    def initial_bounds(self) -> tuple[jax.Array, jax.Array]:
+        return -jnp.ones(2, self.dt.dtype), jnp.ones(2, self.dt.dtype)
+
+    def physical_input(self, action: jax.Array) -> jax.Array:
+        return self.force_mag * self.clipped(action)
+
+    def reward(self, state: EnvState, action: jax.Array, next_state: EnvState, *, key: jax.Array | None) -> jax.Array:
+        del state, key
+        error = jnp.minimum(jnp.sum(next_state.y**2), _ERROR_CAP**2)
+        return -error - self.action_cost * jnp.sum(self.clipped(action) ** 2)
+
+    @property
+    def worst_reward(self) -> jax.Array:
+        return -(_ERROR_CAP**2) - self.action_cost
