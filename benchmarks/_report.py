@@ -489,6 +489,25 @@ def sharded_rollout(folder, link):
     ]
 
 
+def rimless_wheel(folder, link):
+    data = _read_json(folder, "rimless_wheel.json")
+    if data is None:
+        return []
+    parameters = ", ".join(f"{name} {value:.6g}" for name, value in data["parameters"].items())
+    rows = [
+        ["closed form", f"{data['closed_form_post_impact_speed']:.12f}", ""],
+        [f"env, {len(data['starts'])} starts ({data['solver']})", f"{data['env_post_impact_speed']:.12f}",
+         f"{data['env_max_abs_error']:.2e}"],
+        ["SciPy solve_ivp with events (DOP853, 1e-13)", f"{data['scipy_post_impact_speed']:.12f}", f"{data['scipy_abs_error']:.2e}"],
+    ]
+    lines = [f"Passive rimless wheel ({parameters}), post-impact theta_dot of the limit cycle after "
+             f"{data['env_steps']} env steps:", ""]
+    lines += _table(["source", "theta_dot+ (rad/s)", "max abs error against the closed form"], rows)
+    if (folder / "rimless_wheel.png").exists():
+        lines += [f"![phase portrait]({link}/rimless_wheel.png)", ""]
+    return lines
+
+
 SECTIONS = {
     "work_precision": work_precision,
     "gradient_error": gradient_error,
@@ -501,6 +520,7 @@ SECTIONS = {
     "adaptive_vmap": adaptive_vmap,
     "latency": latency,
     "gym_vector": gym_vector,
+    "rimless_wheel": rimless_wheel,
     "stability": stability,
     "domain_randomisation": domain_randomisation,
     "ppo_baseline": ppo_baseline,
