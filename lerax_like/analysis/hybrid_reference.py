@@ -91,7 +91,8 @@ def hybrid_reference(
         segments = []
         while True:
             for index, gap in enumerate(gaps):
-                if float(gap(y)) <= 0 and float(closing_rates[index](y)) < 0:
+                # A plastic impact leaves the gap closed and not opening: a resting contact.
+                if float(gap(y)) <= 0 and float(closing_rates[index](y)) <= 0:
                     raise RuntimeError(
                         f"hybrid reference: at t={t} contact {index}'s gap is closed ({float(gap(y)):.3g}) and "
                         "closing, a resting contact that this reference does not model"
@@ -116,4 +117,50 @@ def hybrid_reference(
                 raise RuntimeError(f"hybrid reference: {max_events} impacts before t={t1} (Zeno?)")
 
 
-__all__ = ["Contact", "HybridSolution", "hybrid_reference"]
+def contacts_of(env) -> list[Contact]:
+    """An env's contact add-ons (`env.contacts`) as one `Contact` per surface, in the env's order."""
+    import jax
+
+    dynamics = env.dynamics
+    contacts = []
+    for add_on in env.contacts:
+        size = jax.eval_shape(lambda y, a=add_on: a.gaps(dynamics, y), env.initial(key=jax.random.key(0)).y).shape[0]
+        for surface in range(size):
+            contacts.append(Contact(
+                gap=lambda y, a=add_on, i=surface: a.gaps(dynamics, y)[i],
+                impact=lambda y, a=add_on, i=surface: a.impact(dynamics, y, i),
+            ))
+    return contacts
+
+
+def hybrid_reference_trajectories(
+    env, y0s, inputs, dt: float, fractions, *, method: str = "DOP853", rtol: float = 1e-13, atol: float = 1e-13,
+) -> tuple[np.ndarray, np.ndarray]:
+    """As `dense_reference_trajectories`, through the impacts of the env's contacts.
+
+    One hybrid solve per initial state and env step (the input held over the step), each
+    restarted at every impact. Returns the states after each env step `(B, T, n)` and at
+    `fractions` of each step `(B, T, len(fractions), n)`, from the segment covering each
+    time (SciPy's dense output).
+    """
+    contacts = contacts_of(env)
+    y0s = np.asarray(y0s, dtype=np.float64)
+    inputs = np.asarray(inputs, dtype=np.float64)
+    fractions = np.asarray(fractions, dtype=np.float64)
+    states = np.empty((len(y0s), len(inputs), y0s.shape[1]))
+    inside = np.empty((len(y0s), len(inputs), len(fractions), y0s.shape[1]))
+    for b, y in enumerate(y0s):
+        for k, u in enumerate(inputs):
+            solution = hybrid_reference(
+                env.physics.vector_field, contacts, y, u, dt, method=method, rtol=rtol, atol=atol,
+                dense_output=len(fractions) > 0,
+            )
+            for j, time in enumerate(fractions * dt):
+                segment = next(s for s in solution.segments if s.t[0] <= time <= s.t[-1])
+                inside[b, k, j] = segment.sol(time)
+            y = solution.y
+            states[b, k] = y
+    return states, inside
+
+
+__all__ = ["Contact", "HybridSolution", "contacts_of", "hybrid_reference", "hybrid_reference_trajectories"]
