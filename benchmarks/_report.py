@@ -489,6 +489,23 @@ def sharded_rollout(folder, link):
     ]
 
 
+def contact_study(folder, link):
+    data = _read_json(folder, "contact_study.json")
+    if data is None:
+        return []
+    rows = []
+    for name, entry in data.items():
+        for order in entry["orders"]:
+            rows.append([name, ", ".join(f"{k}={v:g}" for k, v in entry["scene_kwargs"].items()), order["solver"],
+                         order["method_order"], _g(order["order"]), order["points"]])
+    lines = ["Fitted orders of the final-time error (fixed steps) on CartPoleContinuous through contact:", ""]
+    lines += _table(["contact", "keywords", "solver", "method order", "fitted order", "points"], rows)
+    for name in data:
+        if (folder / f"contact_study_{name}.png").exists():
+            lines += [f"![{name}]({link}/contact_study_{name}.png)", ""]
+    return lines
+
+
 def rimless_wheel(folder, link):
     data = _read_json(folder, "rimless_wheel.json")
     if data is None:
@@ -520,6 +537,7 @@ SECTIONS = {
     "adaptive_vmap": adaptive_vmap,
     "latency": latency,
     "gym_vector": gym_vector,
+    "contact_study": contact_study,
     "rimless_wheel": rimless_wheel,
     "stability": stability,
     "domain_randomisation": domain_randomisation,
