@@ -24,8 +24,8 @@ _REGISTERED = (
     "double_cartpole:DoubleCartPole",
     "n_link_pendulum:NLinkPendulum",
     "planar_quadrotor:PlanarQuadrotor",
-    "rimless_wheel:RimlessWheel",
     "bouncing_ball:BouncingBall",
+    "rimless_wheel:RimlessWheel",
 )
 
 
