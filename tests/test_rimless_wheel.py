@@ -141,3 +141,36 @@ def test_slow_wheel_rocks_back_onto_its_rear_spoke():
     assert solution.event_contacts[0] == 1
     after = solution.segments[1].y[:, 0]
     np.testing.assert_allclose(after[1], -np.cos(2 * float(dynamics.spoke_half_angle)) * 0.5, rtol=1e-10)
+
+
+@pytest.mark.slow
+def test_the_scene_rolls_onto_the_closed_form_limit_cycle():
+    # The env's own hybrid step (heel strikes located by lerax_like.hybrid), zero torque,
+    # from starts that pass over the top; the post-impact speed of the last strike is read
+    # off the end state of its env step by the stance's energy (conserved between strikes).
+    import diffrax
+    import jax
+
+    import lerax_like as ll
+
+    env = ll.RimlessWheel(solver="dopri8", stepsize_controller=diffrax.PIDController(rtol=1e-12, atol=1e-12),
+                          max_steps=100_000)
+    wheel = env.dynamics
+    after_strike = float(wheel.slope - wheel.spoke_half_angle)
+    starts = jnp.asarray([[after_strike, 1.02 * float(wheel.speed_to_pass_the_top)], [0.3, 3.5]])
+
+    def run(y0):
+        def body(state, _):
+            state, info = env.evolve(state, jnp.zeros(1))
+            return state, (state.y, info["impacts"], info["solver_ok"])
+
+        return jax.lax.scan(body, ll.EnvState(y=y0, steps=jnp.asarray(0)), None, length=900)[1]
+
+    ys, impacts, ok = (np.asarray(a) for a in jax.jit(jax.vmap(run))(starts))
+    assert ok.all()
+    g_over_l = float(wheel.gravity / wheel.leg_length)
+    for y, count in zip(ys, impacts):
+        assert count.sum() > 40 and count.max() == 1
+        last = y[np.flatnonzero(count)[-1]]
+        speed = np.sqrt(last[1] ** 2 + 2 * g_over_l * (np.cos(last[0]) - np.cos(after_strike)))
+        assert abs(speed - float(wheel.limit_cycle_speed)) < 1e-9
