@@ -41,13 +41,17 @@ def main(argv=None) -> None:
     args = parser.parse_args(argv)
     out = args.out or results_dir(args.quick)
     out.mkdir(parents=True, exist_ok=True)
-    substeps = (2, 4, 8) if args.quick else (2, 4, 8, 16)
-    sweeps = (SolverSweep("rk4", substeps=substeps), SolverSweep("tsit5", substeps=substeps[:-1] if not args.quick else substeps))
+    # Tsit5 from one step per env step: at two substeps and finer its error reaches the
+    # reference floor within two halvings, too few points for a fit.
+    sweeps = (SolverSweep("rk4", substeps=(2, 4, 8) if args.quick else (2, 4, 8, 16)),
+              SolverSweep("tsit5", substeps=(1, 2, 4) if args.quick else (1, 2, 4, 8)))
     summary = {}
     for name, kwargs in CONTACTS.items():
         config = StudyConfig(
             scene="CartPoleContinuous", scene_kwargs=kwargs, sweeps=sweeps, schedules=("recorded",),
-            horizon=25, batch=2, repeats=1, dense_points=1,
+            # No dense grid through impacts (dense_points=1); the smooth penalty ODE keeps one
+            # point inside, as SciPy's dense output needs a time to evaluate.
+            horizon=25, batch=2, repeats=1, dense_points=1 if name == "walls" else 2,
         )
         started = time.perf_counter()
         result = run_study(config, progress=False)
@@ -58,7 +62,8 @@ def main(argv=None) -> None:
         extra = {f"{row['solver']} {row['substeps']}": row["steps"] - config.horizon * row["substeps"] for row in result.rows}
         summary[name] = {"scene_kwargs": kwargs, "orders": orders, "seconds": seconds, "extra_steps_per_trajectory": extra}
         for entry in orders:
-            print(f"{name:<10} {entry['solver']:<6} fitted order {entry['order']:.3f} ({entry['points']} points; "
+            fitted = "none (fewer than two errors in range)" if entry["order"] is None else f"{entry['order']:.3f}"
+            print(f"{name:<10} {entry['solver']:<6} fitted order {fitted} ({entry['points']} points; "
                   f"method order {entry['method_order']})")
         for row in result.rows:
             print(f"{name:<10} {row['solver']:<6} substeps {row['substeps']:>3}  error {row['error']:.3e}  "
