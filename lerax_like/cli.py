@@ -176,14 +176,12 @@ def _gradient_variance(arguments) -> int:
         overrides["solvers"] = tuple(arguments.solver)
     if arguments.dtype is not None:
         overrides["dtype"] = arguments.dtype
-    stiffnesses = arguments.end_stop_stiffness or [None]
+    cases = [{"end_stop_stiffness": k} for k in arguments.end_stop_stiffness or []]
+    cases += [{"restitution": e} for e in arguments.restitution or []]
     try:
         configs = [
-            GradientVarianceConfig.default(
-                arguments.scene, quick=arguments.quick,
-                scene_kwargs={} if k is None else {"end_stop_stiffness": k}, **overrides,
-            )
-            for k in stiffnesses
+            GradientVarianceConfig.default(arguments.scene, quick=arguments.quick, scene_kwargs=kwargs, **overrides)
+            for kwargs in cases or [{}]
         ]
         results = []
         start = time.perf_counter()
@@ -311,6 +309,9 @@ def main(argv: list[str] | None = None) -> int:
                           help="solver presets (default: rk4; tsit5 with end stops)")
     variance.add_argument("--end-stop-stiffness", nargs="+", type=float, metavar="K",
                           help="cart-poles: end stops of these stiffnesses (N/m) at 0.5 m, one study each")
+    variance.add_argument("--restitution", nargs="+", type=float, metavar="E",
+                          help="cart-poles: walls at 0.5 m located as events, of these restitutions, one study each "
+                               "(beside any --end-stop-stiffness)")
     variance.add_argument("--dtype", choices=("float64", "float32"), default=None,
                           help="dtype of the estimators (default float64; float32 vs float64 is measured anyway)")
     variance.add_argument("--out", default="lerax_like_gradient_variance",
