@@ -174,3 +174,23 @@ def test_the_scene_rolls_onto_the_closed_form_limit_cycle():
         last = y[np.flatnonzero(count)[-1]]
         speed = np.sqrt(last[1] ** 2 + 2 * g_over_l * (np.cos(last[0]) - np.cos(after_strike)))
         assert abs(speed - float(wheel.limit_cycle_speed)) < 1e-9
+
+
+def test_hybrid_reference_trajectories_of_a_dropped_ball_match_the_closed_form():
+    # The study's event-restarted SciPy reference, on an env's own contacts: a ball dropped
+    # from rest at height h lands at t* = sqrt(2 h / g) and leaves at e g t*.
+    import lerax_like as ll
+    from lerax_like.analysis.hybrid_reference import hybrid_reference_trajectories
+
+    env = ll.BouncingBall(dt=0.5, restitution=0.8)
+    g, h, e = float(env.dynamics.gravity), 1.0, 0.8
+    states, inside = hybrid_reference_trajectories(
+        env, np.array([[0.0, h, 0.0, 0.0]]), np.zeros((1, 2)), 0.5, np.array([0.25]), rtol=1e-13, atol=1e-13
+    )
+    landing = np.sqrt(2 * h / g)
+    after = 0.5 - landing
+    rebound = e * g * landing
+    np.testing.assert_allclose(states[0, 0], [0.0, rebound * after - g / 2 * after**2, 0.0, rebound - g * after],
+                               rtol=0, atol=1e-11)
+    # A quarter of the step, 0.125 s, before the landing.
+    np.testing.assert_allclose(inside[0, 0, 0], [0.0, h - g / 2 * 0.125**2, 0.0, -g * 0.125], rtol=0, atol=1e-11)
