@@ -92,6 +92,13 @@ def _study(arguments) -> int:
     solvers = _solvers_from(arguments, "study")
     if solvers is not None:
         overrides["sweeps"] = sweeps_for(solvers, quick=arguments.quick, stiff=SCENES[arguments.scene].stiff)
+    if arguments.scene_keyword:
+        try:
+            overrides["scene_kwargs"] = {key: float(value) for key, value in
+                                         (pair.split("=", 1) for pair in arguments.scene_keyword)}
+        except ValueError:
+            print(f"lerax-like study: --scene-keyword takes KEY=NUMBER, got {arguments.scene_keyword}", file=sys.stderr)
+            return 2
     config = StudyConfig.default(arguments.scene, quick=arguments.quick, **overrides)
     plot = not arguments.no_plot and matplotlib_available()
     start = time.perf_counter()
@@ -281,6 +288,9 @@ def main(argv: list[str] | None = None) -> int:
     study.add_argument("--no-progress", action="store_true", help="no progress bar")
     study.add_argument("--no-plot", action="store_true", help="skip the PNG (no matplotlib needed)")
     study.add_argument("--solver", action="append", metavar="NAME", help=SOLVER_HELP)
+    study.add_argument("--scene-keyword", action="append", metavar="KEY=NUMBER",
+                       help="a numeric keyword of the scene, repeatable: --scene-keyword restitution=0.8 "
+                            "--scene-keyword track_limit=0.1 studies CartPoleContinuous with located walls")
     study.set_defaults(run=_study)
 
     gradients = commands.add_parser(
