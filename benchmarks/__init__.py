@@ -97,6 +97,7 @@ BENCHMARKS = {
         Benchmark("domain_randomisation", "a policy trained over pole masses against one trained at the nominal mass", (_OPTAX, _STUDY)),
         Benchmark("ppo_baseline", "PPO (Stable-Baselines3) on the policy-learning task", (_SB3,)),
         Benchmark("sb3_vector", "PPO on lerax_like.sb3.make_vec_env against SB3's make_vec_env; the VecEnvs' speed", (_SB3,)),
+        Benchmark("contact", "located walls against penalty end stops: throughput and accuracy against SciPy", (_STUDY, _PLOTS)),
         Benchmark(
             "sharded_rollout", "rollouts sharded over devices equal the unsharded run",
             environment=(("XLA_FLAGS", "--xla_force_host_platform_device_count=4"),),

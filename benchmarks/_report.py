@@ -522,6 +522,36 @@ def rimless_wheel(folder, link):
     lines += _table(["source", "theta_dot+ (rad/s)", "max abs error against the closed form"], rows)
     if (folder / "rimless_wheel.png").exists():
         lines += [f"![phase portrait]({link}/rimless_wheel.png)", ""]
+def contact(folder, link):
+    rows = _read_csv(folder, "contact.csv")
+    if rows is None:
+        return []
+    table = [
+        [row["model"], _mega(row["forward_steps_per_s"]), _mega(row["value_and_grad_steps_per_s"]),
+         _g(row["max_error"]), _g(row["median_error"]), _g(row["max_penetration_m"]),
+         _g(row["solver_ok_fraction"]), _g(row["mean_impacts"]) if row["model"] == "located" else "not counted"]
+        for row in rows
+    ]
+    by_model = {row["model"]: row for row in rows}
+    lines = [
+        f"N = {rows[0]['envs']} vmapped envs ({rows[0].get('gradient_envs', rows[0]['envs'])} for the value and "
+        f"gradient), {rows[0]['steps']} steps; throughput in env steps per second; "
+        "errors are the largest state error over the rollout against the SciPy reference (first 16 envs).", "",
+    ]
+    lines += _table(["model", "forward", "value and gradient", "max error", "median error", "max penetration (m)",
+                     "solver_ok", "impacts per env"], table)
+    if {"located", "penalty"} <= set(by_model):
+        located, penalty = by_model["located"], by_model["penalty"]
+        ratio = float(located["forward_steps_per_s"]) / float(penalty["forward_steps_per_s"])
+        gradient_ratio = float(located["value_and_grad_steps_per_s"]) / float(penalty["value_and_grad_steps_per_s"])
+        lines += [f"Located over penalty: {ratio:.3g}x forward, {gradient_ratio:.3g}x value and gradient.", ""]
+    sweep = _read_csv(folder, "contact_sweep.csv")
+    if sweep:
+        worst = max(float(row["relative_error"]) for row in sweep)
+        lines += [f"AD against central FD across the restitution sweep: largest relative error {worst:.2g}.", ""]
+    for figure in ("contact_trajectory.png", "contact_gradients.png"):
+        if (folder / figure).exists():
+            lines += [f"![{figure}]({link}/{figure})", ""]
     return lines
 
 
@@ -543,6 +573,7 @@ SECTIONS = {
     "domain_randomisation": domain_randomisation,
     "ppo_baseline": ppo_baseline,
     "sb3_vector": sb3_vector,
+    "contact": contact,
     "sharded_rollout": sharded_rollout,
 }
 assert set(SECTIONS) == set(BENCHMARKS), "every benchmark needs a section"

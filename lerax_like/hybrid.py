@@ -44,6 +44,7 @@ from collections.abc import Callable, Sequence
 
 import diffrax
 import equinox as eqx
+import equinox.internal as eqxi
 import jax
 import jax.numpy as jnp
 import optimistix
@@ -113,6 +114,13 @@ class _Surfaces(eqx.Module):
         """The physics, with the resting surfaces' constraint forces added."""
         u, resting = args
         derivative = self.physics.vector_field(t, y, u)
+        # `unvmap_any`: true if any env of a vmapped batch rests, so that a batch in which
+        # none does skips the constraint (a `cond` on a batched predicate runs both branches).
+        return jax.lax.cond(
+            eqxi.unvmap_any(jnp.any(resting)), lambda y, d, r: self._constrained(y, d, r), lambda y, d, r: d, y, derivative, resting
+        )
+
+    def _constrained(self, y: State, derivative: State, resting) -> State:
         start = 0
         for contact, size in zip(self.contacts, self.sizes(y)):
             if isinstance(contact, AbstractImpulseContact):
@@ -125,6 +133,12 @@ class _Surfaces(eqx.Module):
 
     def forces(self, y: State, u: Input, resting: Bool[Array, " k"]) -> Float[Array, " k"]:
         """The resting surfaces' contact forces (0 for the others)."""
+        return jax.lax.cond(
+            eqxi.unvmap_any(jnp.any(resting)), lambda y, u, r: self._forces(y, u, r), lambda y, u, r: jnp.zeros_like(r, dtype=y.dtype),
+            y, u, resting,
+        )
+
+    def _forces(self, y: State, u: Input, resting: Bool[Array, " k"]) -> Float[Array, " k"]:
         derivative = self.physics.vector_field(0.0, y, u)
         forces, start = [], 0
         for contact, size in zip(self.contacts, self.sizes(y)):
@@ -163,15 +177,27 @@ class _Surfaces(eqx.Module):
         # A choice of step, as the controller's own: no gradient flows through it.
         return jax.lax.stop_gradient(jnp.min(fraction))
 
-    def settle(self, y: State, u: Input, resting_before: Bool[Array, " k"]):
+    def offset(self, y: State):
+        """How far off a surface a state is re-placed: 64 machine epsilons, scaled by the coordinates."""
+        q, _ = self.dynamics.coordinates(y) if self._mechanical else (y, None)
+        return 64 * jnp.finfo(y.dtype).eps * (1 + jnp.max(jnp.abs(q)))
+
+    def settle(self, y: State, u: Input):
         """At a segment's start: impacts, rest and release, and the re-placement just off the surfaces.
 
-        Returns the state, the resting surfaces and the number of impacts applied.
+        Returns the state, the resting surfaces and the number of impacts applied. All of it
+        is skipped when no state (of a vmapped batch) touches a surface.
         """
-        del resting_before  # rest is read off the state: touching, at rest, and pushed
-        dtype = y.dtype
-        q, _ = self.dynamics.coordinates(y) if self._mechanical else (y, None)
-        offset = 64 * jnp.finfo(dtype).eps * (1 + jnp.max(jnp.abs(q)))
+        touching = self.gaps(y) <= 2 * self.offset(y)
+        return jax.lax.cond(
+            eqxi.unvmap_any(jnp.any(touching)),
+            lambda y, u: self._settle(y, u),
+            lambda y, u: (y, jnp.zeros_like(touching), jnp.zeros((), dtype=int)),
+            y, u,
+        )
+
+    def _settle(self, y: State, u: Input):
+        offset = self.offset(y)
         impacts = jnp.zeros((), dtype=int)
         start = 0
         sizes = self.sizes(y)
@@ -265,9 +291,14 @@ def integrate_with_contacts(
     )
 
     def segment(carry, _):
+        # Segments after every env's last one are skipped whole (`unvmap_any`: over a batch).
+        done = carry[1] >= dt
+        return jax.lax.cond(eqxi.unvmap_any(~done), solve_segment, lambda carry: carry, carry), None
+
+    def solve_segment(carry):
         y, t, resting, ok, steps, rejected, impacts, first = carry
         done = t >= dt
-        settled, new_resting, hits = surfaces.settle(y, u, resting)
+        settled, new_resting, hits = surfaces.settle(y, u)
         y = jnp.where(done, y, settled)
         resting = jnp.where(done, resting, new_resting)
         hits = jnp.where(done, 0, hits)
@@ -289,7 +320,7 @@ def integrate_with_contacts(
             impacts + hits,
             first,
         )
-        return carry, None
+        return carry
 
     resting = jnp.zeros_like(surfaces.gaps(y0), dtype=bool)
     zero = jnp.zeros((), dtype=int)

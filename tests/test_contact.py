@@ -93,7 +93,7 @@ def _grazing(guarded: bool):
         class Unguarded(diffrax.PIDController):
             pass
 
-        integrator = eqx.tree_at(lambda i: i.stepsize_controller, integrator, Unguarded(rtol=1e-6, atol=1e-9))
+        integrator = ll.Integrator(integrator.solver, Unguarded(rtol=1e-6, atol=1e-9))
     y0 = jnp.array([wall - 0.5, 1.0, speed, 0.0])
     y, info = jax.jit(
         lambda y0: integrate_with_contacts(integrator, env.physics, env.dynamics, env.contacts, y0, u, env.dt)
@@ -185,3 +185,45 @@ def test_the_cart_wall_impact_is_impulse_consistent():
     effective_mass = 1.0 / float(jnp.linalg.inv(m_before)[0, 0])
     lost = float(env.dynamics.energy(before) - env.dynamics.energy(after))
     np.testing.assert_allclose(lost, (1 - e**2) * effective_mass * 1.3**2 / 2, rtol=1e-12)
+
+
+def test_walls_and_end_stops_are_chosen_by_keyword_also_through_gymnasium():
+    import gymnasium
+
+    walled = ll.CartPoleContinuous(track_limit=0.5, restitution=0.8)
+    assert walled.forces == () and isinstance(walled.contacts[0], ll.physics.contact.Walls)
+    assert float(walled.contacts[0].track_limit) == 0.5
+    stopped = ll.CartPoleContinuous(track_limit=0.5, end_stop_stiffness=1e5)
+    assert stopped.contacts == () and isinstance(stopped.forces[0], ll.EndStops)
+    with pytest.raises(ValueError, match="EndStops .* or Walls"):
+        ll.CartPole(restitution=0.5, end_stop_stiffness=1e5)
+    with pytest.raises(ValueError, match="restitution"):
+        ll.CartPole(restitution=1.5)
+    env = gymnasium.make("lerax_like/CartPole-v1", track_limit=0.5, restitution=0.8)
+    assert isinstance(env.unwrapped.scene.contacts[0], ll.physics.contact.Walls)
+    env.close()
+
+
+def test_backsolve_is_refused_by_name():
+    env = ll.with_adjoint(_ball(), "backsolve")
+    with pytest.raises(ValueError, match="BacksolveAdjoint"):
+        env.evolve(_state([0.0, 1.0, 0.0, 0.0]), jnp.zeros(2))
+
+
+@pytest.mark.slow
+def test_forward_mode_through_an_impact_equals_reverse_mode():
+    env = _ball(dt=0.5)
+    forward = ll.with_adjoint(env, "forward")
+    y0 = jnp.array([0.0, 1.0, 0.3, 0.0])
+    reverse_jacobian = jax.jit(jax.jacrev(lambda y: env.evolve(_state(y), jnp.zeros(2))[0].y))(y0)
+    forward_jacobian = jax.jit(jax.jacfwd(lambda y: forward.evolve(_state(y), jnp.zeros(2))[0].y))(y0)
+    assert int(env.evolve(_state(y0), jnp.zeros(2))[1]["impacts"]) == 1
+    np.testing.assert_allclose(np.asarray(forward_jacobian), np.asarray(reverse_jacobian), rtol=1e-10, atol=1e-12)
+    # The height's sensitivity to the initial height after one bounce, in closed form: the
+    # impact time t* = sqrt(2 h / g) and the rebound speed e g t* give
+    # z(T) = e g t* (T - t*) - g (T - t*)^2 / 2, differentiated in h.
+    e, h, T = 0.8, 1.0, 0.5
+    t_star = math.sqrt(2 * h / GRAVITY)
+    dt_dh = 1 / (GRAVITY * t_star)
+    dz_dh = (e * GRAVITY * (T - t_star) - e * GRAVITY * t_star + GRAVITY * (T - t_star)) * dt_dh
+    np.testing.assert_allclose(float(forward_jacobian[1, 1]), dz_dh, rtol=1e-9)

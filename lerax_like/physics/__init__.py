@@ -21,3 +21,9 @@ from .forces import (
     ForcedDynamics as ForcedDynamics,
     JointDamping as JointDamping,
 )
+from .contact import (
+    AbstractContact as AbstractContact,
+    AbstractImpulseContact as AbstractImpulseContact,
+    Walls as Walls,
+)
+from .ball import BallDynamics as BallDynamics, FloorAndWall as FloorAndWall
