@@ -75,6 +75,7 @@ _PLOTS = ("matplotlib", "pip install -e '.[study]'")
 _GYMNAX = ("gymnax", "pip install -e '.[bench]'")
 _OPTAX = ("optax", "pip install -e '.[test]'")
 _SB3 = ("stable_baselines3", "pip install stable-baselines3 (with a CPU torch)")
+_REJAX = ("rejax", "pip install -e '.[bench]'")
 
 # In the order `all` runs them.
 BENCHMARKS = {
@@ -96,8 +97,13 @@ BENCHMARKS = {
         Benchmark("stability", "stiff and extreme cases: status and error per solver, and Kvaerno5's root finders", (_STUDY,)),
         Benchmark("domain_randomisation", "a policy trained over pole masses against one trained at the nominal mass", (_OPTAX, _STUDY)),
         Benchmark("ppo_baseline", "PPO (Stable-Baselines3) on the policy-learning task", (_SB3,)),
+        Benchmark("jax_rl", "rejax's PPO on gymnax's CartPole and on lerax_like.gymnax's (euler, rk4, tsit5): time and return", (_GYMNAX, _REJAX)),
         Benchmark("sb3_vector", "PPO on lerax_like.sb3.make_vec_env against SB3's make_vec_env; the VecEnvs' speed", (_SB3,)),
         Benchmark("contact", "located walls against penalty end stops: throughput and accuracy against SciPy", (_STUDY, _PLOTS)),
+        Benchmark(
+            "gym_before_after", "the vector env's and the SB3 VecEnv's speed against an older commit's, interleaved",
+            (_SB3,),
+        ),
         Benchmark(
             "sharded_rollout", "rollouts sharded over devices equal the unsharded run",
             environment=(("XLA_FLAGS", "--xla_force_host_platform_device_count=4"),),

@@ -292,8 +292,7 @@ def throughput(folder, link):
 
 
 def profile_step(folder, link):
-    rows = _read_csv(folder, "profile_step.csv")
-    if rows is None:
+    if (rows := _read_csv(folder, "profile_step.csv")) is None:
         return []
     return ["Each row adds one part of `env.step` to the previous workload; time relative to gymnax's step "
             "(minimum of interleaved repeats):", ""] + _table(
@@ -479,6 +478,24 @@ def sb3_vector(folder, link):
     return lines
 
 
+def jax_rl(folder, link):
+    rows, data = _read_csv(folder, "jax_rl.csv"), _read_json(folder, "jax_rl.json")
+    if rows is None or data is None:
+        return []
+    recipe = data["recipe"]
+    lines = [
+        f"rejax's PPO, its CartPole config ({recipe['total_timesteps']} steps, {recipe['num_envs']} envs, evaluation "
+        f"every {recipe['eval_freq']} steps), {recipe['seeds']} seeds vmapped, {recipe['precision']}, "
+        f"{recipe['rounds']} interleaved rounds; load average {data['load_average_before'][0]} before, "
+        f"{data['load_average_after'][0]} after:", "",
+    ]
+    return lines + _table(
+        ["env", "training time / gymnax's (fastest)", "(median)", "fastest (s)", "compile (s)", "final return"],
+        [[row["env"], row["time_ratio_fastest"], row["time_ratio_median"], row["fastest_s"], row["compile_s"],
+          f"{row['final_return_mean']} +- {row['final_return_std']}"] for row in rows],
+    )
+
+
 def sharded_rollout(folder, link):
     data = _read_json(folder, "sharded_rollout.json")
     if data is None:
@@ -552,6 +569,21 @@ def contact(folder, link):
     for figure in ("contact_trajectory.png", "contact_gradients.png"):
         if (folder / figure).exists():
             lines += [f"![{figure}]({link}/{figure})", ""]
+def gym_before_after(folder, link):
+    rows = _read_csv(folder, "gym_before_after.csv")
+    if rows is None:
+        return []
+    first = rows[0]
+    lines = [
+        f"Commit {first['new_commit']} against {first['old_commit']}, {first['rounds']} interleaved rounds, fastest of "
+        f"{first['blocks']} blocks; load average {first['load_average_before']} before, "
+        f"{first['load_average_after']} after:", "",
+    ]
+    lines += _table(
+        ["front end", "id", "envs", "old steps/s", "new steps/s", "new / old (wall)", "new / old (CPU time)"],
+        [[row["front_end"], row["id"], row["num_envs"], f"{int(row['old_steps_per_s']):,}",
+          f"{int(row['new_steps_per_s']):,}", row["new_vs_old"], row["new_vs_old_cpu_time"]] for row in rows],
+    )
     return lines
 
 
@@ -572,8 +604,10 @@ SECTIONS = {
     "stability": stability,
     "domain_randomisation": domain_randomisation,
     "ppo_baseline": ppo_baseline,
+    "jax_rl": jax_rl,
     "sb3_vector": sb3_vector,
     "contact": contact,
+    "gym_before_after": gym_before_after,
     "sharded_rollout": sharded_rollout,
 }
 assert set(SECTIONS) == set(BENCHMARKS), "every benchmark needs a section"

@@ -49,10 +49,58 @@ def gymnax_program():
         return env.reset(key, params)[1]
 
     def step(state, action, key):
-        _, state, reward, _, _, _ = env.step(key, state, action, params)
+        # gymnax 0.0.x returns (obs, state, reward, done, info), 1.x (obs, state, reward,
+        # terminated, truncated, info): the state and reward are second and third in both.
+        _, state, reward, *_ = env.step(key, state, action, params)
         return state, reward
 
     return step, initial
+
+
+# rejax's PPO configuration for CartPole-v1 (rejax's configs/gymnax/cartpole.yaml, `ppo`),
+# with `env` and `env_params` given by the caller.
+REJAX_CARTPOLE_PPO = {
+    "agent_kwargs": {"activation": "tanh"},
+    "num_envs": 5,
+    "num_steps": 100,
+    "num_epochs": 5,
+    "num_minibatches": 5,
+    "learning_rate": 0.00075,
+    "max_grad_norm": 0.5,
+    "total_timesteps": 100_000,
+    "eval_freq": 1000,
+    "gamma": 0.99,
+    "gae_lambda": 0.95,
+    "clip_eps": 0.2,
+    "ent_coef": 0.01,
+    "vf_coef": 0.5,
+}
+
+
+def cartpole_env(solver: str | None):
+    """`(env, params)` of gymnax's CartPole-v1 (`solver=None`) or lerax_like's with `solver`."""
+    if solver is None:
+        import gymnax
+
+        return gymnax.make("CartPole-v1")
+    import lerax_like.gymnax
+
+    return lerax_like.gymnax.make("CartPole-v1", solver=solver)
+
+
+def rejax_ppo_training(env, params, num_seeds: int, **overrides):
+    """`(train, keys)`: rejax's PPO with its CartPole config on `env`, `train(keys)` jitted and
+    vmapped over `num_seeds` seeds (keys split from key 0, the same for every env).
+
+    `train(keys)` returns rejax's `(train_state, (episode lengths, returns))`; the returns
+    have shape `(num_seeds, evaluations, 128)`: rejax evaluates 128 episodes every
+    `eval_freq` steps, and those evaluations draw from the train state's key without
+    changing it, so `eval_freq` changes the time a run takes, not what it learns.
+    """
+    from rejax import PPO
+
+    algorithm = PPO.create(env=env, env_params=params, **{**REJAX_CARTPOLE_PPO, **overrides})
+    return jax.jit(jax.vmap(algorithm.train)), jr.split(jr.key(0), num_seeds)
 
 
 def batched(rollout, num_envs: int):

@@ -4,7 +4,7 @@ Single env, one `step(action)` call at a time, random actions, reset (untimed) w
 episode ends:
 - `lerax_like/CartPole-v1` through `gymnasium.make` (with Gymnasium's wrappers) and its
   `unwrapped` env;
-- the layer's compiled step alone (`unwrapped._split.step` + `np.asarray`), to split
+- the layer's compiled step alone (`unwrapped.split.compiled.step` + `np.asarray`), to split
   the layer's Python bookkeeping from the jitted call;
 - the JAX floor: one bare `jax.jit` function that takes the same arrays as the layer's
   compiled step (packed parameters; action, step count and float64 state packed in one
@@ -59,28 +59,6 @@ def gym_stepper(env, actions):
     return block
 
 
-def compiled_stepper(env, actions):
-    """The layer's jitted step alone, as `GymnasiumEnv.step` calls it, without its bookkeeping."""
-    unwrapped = env.unwrapped
-    split = unwrapped._split
-    env.reset(seed=0)
-    y = np.array(unwrapped.state)
-    key = unwrapped._jax_key
-
-    def block():
-        nonlocal key
-        times = []
-        with float64():
-            for action in actions:
-                start = time.perf_counter()
-                *outputs, key = split.step(split.parameters, pack_step(y, 0, action), key)
-                _fetch(outputs)
-                times.append(time.perf_counter() - start)
-        return statistics.median(times)
-
-    return block
-
-
 def _fetch(outputs):
     # What the layer does with its results: `np.asarray` per array (`jax.device_get`
     # costs far more for arrays this small).
@@ -98,28 +76,30 @@ def _bare(shapes):
     return bare
 
 
-def floor_stepper(env, actions):
-    """The JAX floor: a bare jitted call with the layer's inputs and outputs, computing nothing."""
-    unwrapped = env.unwrapped
-    split = unwrapped._split
+def call_stepper(env, actions, *, floor: bool):
+    """The layer's jitted step alone, as `GymnasiumEnv.step` calls it, without its
+    bookkeeping; with `floor`, the JAX floor: a bare jitted call with the same inputs and
+    outputs that computes nothing."""
+    split = env.unwrapped.split
     env.reset(seed=0)
-    y = np.array(unwrapped.state)
-    key = unwrapped._jax_key
-
-    with float64():
-        shapes = jax.eval_shape(split.step, split.parameters, pack_step(y, 0, 0), key)
-        bare = _bare(shapes)
-        jax.block_until_ready(bare(split.parameters, pack_step(y, 0, 0), key))
-
-    packed = [pack_step(y, 0, action) for action in actions]  # the floor does not pack
+    y = np.array(env.unwrapped.state)
+    key = split.key(0)
+    call = split.compiled.step
+    packed = [pack_step(y, 0, action) for action in actions]
+    if floor:
+        with float64():
+            call = _bare(jax.eval_shape(split.compiled.step, split.parameters, packed[0], key))
+            jax.block_until_ready(call(split.parameters, packed[0], key))
 
     def block():
         nonlocal key
         times = []
         with float64():
-            for inputs in packed:
+            for action, inputs in zip(actions, packed, strict=True):
                 start = time.perf_counter()
-                *outputs, key = bare(split.parameters, inputs, key)
+                if not floor:  # the layer packs its inputs; the floor does not
+                    inputs = pack_step(y, 0, action)
+                *outputs, key = call(split.parameters, inputs, key)
                 _fetch(outputs)
                 times.append(time.perf_counter() - start)
         return statistics.median(times)
@@ -143,30 +123,30 @@ def vector_stepper(env, num_steps):
 
 
 def vector_call_stepper(env, num_steps, *, floor: bool):
-    """Seconds for `num_steps` calls of the layer's jitted vector step (no restarts:
-    `vector_advance`) plus `np.asarray` of its results, without the layer's bookkeeping;
+    """Seconds for `num_steps` calls of the batch's jitted vector step (no restarts:
+    `batch_advance`) plus `np.asarray` of its results, without the layer's bookkeeping;
     with `floor`, of a bare jitted call with the same inputs and outputs that computes
     nothing (the JAX floor)."""
-    unwrapped = env.unwrapped if hasattr(env, "unwrapped") else env
-    split = unwrapped._split
+    batch = env.unwrapped.batch
     env.reset(seed=0)
-    y, steps, key = unwrapped._y, unwrapped._steps, unwrapped._jax_key
-    time_limit, observation = unwrapped._time_limit, unwrapped._observation
+    parameters, key, observation = batch.parameters, batch.key, batch.observation
+    with float64():
+        y, steps = jnp.asarray(batch.state), jnp.asarray(batch.steps)
     rng = np.random.default_rng(0)
     num_envs = env.num_envs
-    call = split.vector_advance
+    call = batch.compiled.batch_advance
     if floor:
-        with split.precision():
-            arguments = (split.parameters, y, steps, np.zeros(num_envs, dtype=np.int64), key, time_limit, observation)
-            call = _bare(jax.eval_shape(split.vector_advance, *arguments))
+        with float64():
+            arguments = (parameters, y, steps, np.zeros(num_envs, dtype=np.int64), key, observation)
+            call = _bare(jax.eval_shape(batch.compiled.batch_advance, *arguments))
             jax.block_until_ready(call(*arguments))
 
     def block():
         start = time.perf_counter()
-        with split.precision():
+        with float64():
             for _ in range(num_steps):
                 actions = rng.integers(0, 2, num_envs)
-                _, _, *outputs, _ = call(split.parameters, y, steps, actions, key, time_limit, observation)
+                _, _, *outputs, _ = call(parameters, y, steps, actions, key, observation)
                 _fetch(outputs)
         return time.perf_counter() - start
 
@@ -193,8 +173,8 @@ def main(argv=None):
     single = {
         "lerax_like gym.make step": gym_stepper(ours, actions),
         "lerax_like unwrapped step": gym_stepper(ours.unwrapped, actions),
-        "lerax_like compiled step + fetch": compiled_stepper(ours, actions),
-        "JAX floor: bare jitted call + fetch": floor_stepper(ours, actions),
+        "lerax_like compiled step + fetch": call_stepper(ours, actions, floor=False),
+        "JAX floor: bare jitted call + fetch": call_stepper(ours, actions, floor=True),
         "Gymnasium CartPole gym.make step": gym_stepper(theirs, actions),
         "Gymnasium CartPole unwrapped step": gym_stepper(theirs.unwrapped, actions),
     }

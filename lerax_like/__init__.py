@@ -14,16 +14,17 @@ from ._fields import (
 from .env import (
     AbstractEnv as AbstractEnv,
     EnvState as EnvState,
-    GymnasiumSpec as GymnasiumSpec,
     rollout as rollout,
 )
 from .gradients import ADJOINTS as ADJOINTS, make_adjoint as make_adjoint, with_adjoint as with_adjoint
 from .integrate import (
+    HermiteDenseOutput as HermiteDenseOutput,
     Integrator as Integrator,
     RK4 as RK4,
     SemiImplicitEuler as SemiImplicitEuler,
     SOLVER_PRESETS as SOLVER_PRESETS,
     SOLVERS as SOLVERS,
+    SolverFacts as SolverFacts,
     SolverPreset as SolverPreset,
     describe_solver as describe_solver,
     has_error_estimate as has_error_estimate,
@@ -60,6 +61,7 @@ __version__ = "0.1.0"
 
 # The Gymnasium ids (`gymnasium.make("lerax_like/CartPole-v1")`), registered on import.
 from . import gym as gym
+from .gym import GymnasiumSpec as GymnasiumSpec
 
 gym.register_envs()
 

@@ -22,7 +22,7 @@ SOLVER_HELP = (
 )
 
 
-def solver_from_spec(spec: str) -> "str | diffrax.AbstractSolver":  # noqa: F821 (diffrax is imported lazily)
+def solver_from_spec(spec: str) -> "str | diffrax.AbstractSolver":  # noqa: F821 (imported lazily)
     """The solver a command line names: a preset name, or `module:attribute`.
 
     `module:attribute` imports `module` (from `sys.path`: `PYTHONPATH`, and the current
@@ -32,9 +32,7 @@ def solver_from_spec(spec: str) -> "str | diffrax.AbstractSolver":  # noqa: F821
     """
     import importlib
 
-    import diffrax
-
-    from .integrate import SOLVERS
+    from .integrate import SOLVERS, solver_instance
 
     if not isinstance(spec, str) or not spec:
         raise ValueError(f"solver must be a preset name or 'module:attribute', got {spec!r}")
@@ -51,17 +49,10 @@ def solver_from_spec(spec: str) -> "str | diffrax.AbstractSolver":  # noqa: F821
             value = getattr(value, part)
         except AttributeError:
             raise ValueError(f"solver {spec!r}: module {module_name!r} has no attribute {attribute!r}") from None
-    if isinstance(value, type) and issubclass(value, diffrax.AbstractSolver):
-        try:
-            value = value()
-        except TypeError as error:
-            raise ValueError(
-                f"solver {spec!r}: the class {value.__name__} cannot be built with no arguments ({error}); "
-                "name an instance instead"
-            ) from None
-    if not isinstance(value, diffrax.AbstractSolver):
-        raise ValueError(f"solver {spec!r} names {value!r}, which is no diffrax solver (instance or class)")
-    return value
+    try:
+        return solver_instance(value)
+    except TypeError as error:
+        raise ValueError(f"solver {spec!r}: {error}") from None
 
 
 def _solvers_from(arguments, command: str):

@@ -13,20 +13,21 @@ pass them. The step semantics (keys, failure guards, autoreset) live in `advance
 
 import abc
 import dataclasses
-from typing import ClassVar, Literal, NamedTuple
+from typing import ClassVar, NamedTuple
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import jax.random as jr
 
+from ._episode import episode_limit
 from ._fields import POSITIVE, assign_fields, concrete, parameter
 from ._addons import gather_addons
 from ._random import uniform
 from ._types import Array, BoolScalar, Float, Input, IntScalar, Key, Scalar, State
 from .integrate import Integrator, make_integrator
 from .physics import AbstractDynamics
-from .spaces import AbstractSpace, Box
+from .spaces import AbstractSpace, Box, eager_spaces
 
 
 _INTEGRATOR_KEYWORDS = ("solver", "stepsize_controller", "max_steps", "adjoint", "substeps")
@@ -51,36 +52,6 @@ def time_step(default: float):
     return parameter(default, POSITIVE)
 
 
-def episode_limit(default: int | None):
-    """`max_episode_steps`: the time limit of an episode (None: none)."""
-    return eqx.field(default=default, static=True)
-
-
-@dataclasses.dataclass(frozen=True)
-class GymnasiumSpec:
-    """What registers a scene as `lerax_like/<name>` in Gymnasium, standing in for Gymnasium's `<name>`.
-
-    - `name`: Gymnasium's id (`"CartPole-v1"`); `max_episode_steps`, `reward_threshold`: Gymnasium's.
-    - `renderer`: the Gymnasium env class (`"module:Class"`) whose `render` draws the scene.
-    - `attributes`: Gymnasium's attribute names on its env and the scene's path for each
-      (`("masspole", "dynamics.pole_mass")`; a name listed twice when Gymnasium's one
-      attribute is several parameters, as Acrobot's `LINK_MOI`). The renderer reads them,
-      and the Gymnasium env has them as properties that users read and write.
-    - `reset_options`: how Gymnasium's `reset(options=...)` bounds the start: `"bounds"`
-      (`low`/`high` for every drawn coordinate) or `"pendulum"` (`x_init`, `y_init`).
-    - `float32_start`: Gymnasium's env stores its start in float32 (Acrobot).
-
-    The start itself is drawn from the scene's own `initial_bounds`, with NumPy in
-    Gymnasium's order of calls, so that seeds give Gymnasium's starts.
-    """
-
-    name: str
-    max_episode_steps: int
-    reward_threshold: float | None
-    renderer: str
-    attributes: tuple[tuple[str, str], ...] = ()
-    reset_options: Literal["bounds", "pendulum"] = "bounds"
-    float32_start: bool = False
 
 
 class EnvState(eqx.Module):
@@ -101,6 +72,16 @@ class StepKeys(NamedTuple):
     reward: Key | None
     terminal: Key | None
     reset: Key | None
+
+
+class Attempt(NamedTuple):
+    """A step as integrated and observed, before `advance`'s failure rule (`AbstractEnv.attempt`)."""
+
+    next_state: EnvState
+    observation: Array
+    reward: Scalar
+    info: dict[str, Array]
+    """The solver's info; `solver_ok` (the solve, the observation and the reward finite) and `action_ok`."""
 
 
 def step_keys(key: Key | None, stochastic: bool) -> StepKeys:
@@ -130,8 +111,6 @@ class AbstractEnv(eqx.Module):
       that draws anyway fails at once), and its whole key goes to the start draw.
     - `stiff`: whether its dynamics are stiff, so that the studies' SciPy reference uses
       Radau instead of DOP853 (False unless declared).
-    - `gymnasium`: its `GymnasiumSpec`, or None (the default) when it stands for no
-      Gymnasium env.
     - `aliases`: other names its keywords go by (`("reward", "reward_kind")`; Gymnasium's
       names, such as Pendulum's `g`).
     - `addons`: the add-ons it accepts: generalised forces (`JointDamping`, `EndStops`),
@@ -145,14 +124,13 @@ class AbstractEnv(eqx.Module):
 
     stochastic: eqx.AbstractClassVar[bool]
     stiff: ClassVar[bool] = False
-    gymnasium: ClassVar[GymnasiumSpec | None] = None
     addons: ClassVar[tuple[type, ...]] = ()
     aliases: ClassVar[tuple[tuple[str, str], ...]] = ()
 
     dynamics: eqx.AbstractVar[AbstractDynamics]
     integrator: eqx.AbstractVar[Integrator]
     dt: eqx.AbstractVar[Scalar]
-    max_episode_steps: eqx.AbstractVar[int | None]
+    max_episode_steps: eqx.AbstractVar[IntScalar | None]
 
     def __init__(self, *fields, **keywords):
         """Every field by keyword (or by position, in declaration order); besides, the
@@ -176,6 +154,10 @@ class AbstractEnv(eqx.Module):
         assign_fields(self, keywords)
         for contact in getattr(self, "contacts", ()):
             contact.check(self.dynamics)
+
+    def __init_subclass__(cls, **keywords):
+        super().__init_subclass__(**keywords)
+        eager_spaces(cls)  # NumPy bounds inside a jitted trainer that closes over the env
 
     # -- what a scene provides ---------------------------------------------------------
 
@@ -334,18 +316,29 @@ class AbstractEnv(eqx.Module):
         return state.steps >= self.max_episode_steps
 
     def reset(self, *, key: Key) -> tuple[EnvState, Array, dict[str, Array]]:
+        """A fresh episode: state, observation, and an info with `step`'s keys and dtypes (so
+        that `lax.scan`/`lax.select` mix the two): a step that integrated nothing and failed
+        at nothing, every `*_ok` flag True, every count zero, `final_observation` the start's."""
+        state, observation = self._start(key)
+        action = jax.eval_shape(lambda: self.action_space.sample(key=jr.key(0)))
+        # Only the structure of a step's info is read: the step is traced, never run.
+        shapes = jax.eval_shape(lambda s, a: self.advance(s, a, key=jr.key(0))[-1], state, action)
+        info = {name: jnp.full(shape.shape, name.endswith("_ok"), shape.dtype) for name, shape in shapes.items()}
+        return state, observation, {**info, "final_observation": observation}
+
+    def _start(self, key: Key) -> tuple[EnvState, Array]:
         keys = step_keys(key, self.stochastic)
         state = self.initial(key=keys.reset)
-        return state, self.observation(state, key=keys.observation), {}
+        return state, self.observation(state, key=keys.observation)
 
     def advance(
-        self, state: EnvState, action: Array, *, key: Key | None, observation_dtype=None, observation_before=None
+        self, state: EnvState, action: Array, *, key: Key | None
     ) -> tuple[EnvState, Array, Scalar, BoolScalar, dict[str, Array]]:
         """One step without time limit or reset: the step semantics, defined once.
 
-        Returns the next state, its observation (cast to `observation_dtype` if given),
-        the reward, whether the episode terminated, and the info. `step`, `rollout`, the
-        Gymnasium layer and the studies all step through here.
+        Returns the next state, its observation, the reward, whether the episode terminated,
+        and the info. `step`, `rollout`, the Gymnasium layer and the studies all step through
+        here (the layer through its two halves, `attempt` and `conclude`).
 
         Failures are reported, never silent: `info["solver_ok"]` is False when the solve
         failed (non-finite state, step budget exhausted, step size collapsed, Newton
@@ -370,10 +363,17 @@ class AbstractEnv(eqx.Module):
         reported in `info["action_ok"]` and fails as above (pre-step state, worst reward,
         terminated), never silently applied as another action. This costs no runtime
         check that could stop a hot loop, so there is no switch to turn it off.
+        """
+        keys = step_keys(key, self.stochastic)
+        trial = self.attempt(state, action, key=key)
+        return self.conclude(state, trial, self.observation(state, key=keys.observation), key=key)
 
-        `observation_before`, if given, is the observation of `state` (cast to
-        `observation_dtype`) that a failed step returns; a caller that has it, as the
-        Gymnasium layer has its previous result, spares the step observing `state` again.
+    def attempt(self, state: EnvState, action: Array, *, key: Key | None) -> "Attempt":
+        """The first half of `advance`: the step as integrated and observed, with its checks
+        (`info["solver_ok"]`, `info["action_ok"]`), before the failure rule (`conclude`).
+
+        A caller that holds the pre-step observation already (a batched front end carries the
+        last one it returned) passes it to `conclude` instead of observing `state` again.
         """
         action = self.action_space.check(action, "action")
         self.check_state(state)
@@ -382,24 +382,25 @@ class AbstractEnv(eqx.Module):
             space = self.action_space
             raise ValueError(f"action {concrete(action).tolist()} is not admissible in {space}: it must be {space.rule}")
         keys = step_keys(key, self.stochastic)
-
-        def observe(s):
-            observation = self.observation(s, key=keys.observation)
-            return observation if observation_dtype is None else observation.astype(observation_dtype)
-
         next_state, info = self.transition(state, action, key=keys.transition)
-        observation = observe(next_state)
+        observation = self.observation(next_state, key=keys.observation)
         reward = self.reward(state, action, next_state, key=keys.reward)
-        observation_ok = jnp.all(jnp.isfinite(observation))
-        reward_ok = jnp.isfinite(reward)
-        ok = info["solver_ok"] & observation_ok & reward_ok
-        applied = ok & action_ok
-        next_state = EnvState(y=jnp.where(applied, next_state.y, state.y), steps=next_state.steps)
-        previous = observe(state) if observation_before is None else observation_before
-        observation = jnp.where(applied, observation, previous)
-        reward = jnp.where(applied, reward, jnp.asarray(self.worst_reward, reward.dtype))
+        ok = info["solver_ok"] & jnp.all(jnp.isfinite(observation)) & jnp.isfinite(reward)
+        return Attempt(next_state, observation, reward, {**info, "solver_ok": ok, "action_ok": action_ok})
+
+    def conclude(
+        self, state: EnvState, attempt: "Attempt", previous_observation: Array, *, key: Key | None
+    ) -> tuple[EnvState, Array, Scalar, BoolScalar, dict[str, Array]]:
+        """The second half of `advance`, its failure rule: an attempt from `state` that failed
+        (`solver_ok` or `action_ok` False) keeps `state`, returns `previous_observation` (the
+        observation of `state`), pays `worst_reward` and terminates."""
+        keys = step_keys(key, self.stochastic)
+        applied = attempt.info["solver_ok"] & attempt.info["action_ok"]
+        next_state = EnvState(y=jnp.where(applied, attempt.next_state.y, state.y), steps=attempt.next_state.steps)
+        observation = jnp.where(applied, attempt.observation, previous_observation)
+        reward = jnp.where(applied, attempt.reward, jnp.asarray(self.worst_reward, attempt.reward.dtype))
         terminated = self.terminal(next_state, key=keys.terminal) | ~applied
-        return next_state, observation, reward, terminated, {**info, "solver_ok": ok, "action_ok": action_ok}
+        return next_state, observation, reward, terminated, attempt.info
 
     def step(
         self, state: EnvState, action: Array, *, key: Key
@@ -414,11 +415,12 @@ class AbstractEnv(eqx.Module):
         next_state, observation, reward, terminated, info = self.advance(state, action, key=key)
         truncated = self.truncate(next_state)
         done = terminated | truncated
-        reset_state, reset_observation, _ = self.reset(key=keys.reset)
+        reset_state, reset_observation = self._start(keys.reset)
         new_state = jax.tree.map(lambda fresh, old: jnp.where(done, fresh, old), reset_state, next_state)
         new_observation = jnp.where(done, reset_observation, observation)
-        info = {**info, "final_observation": observation}
-        return new_state, new_observation, reward, terminated, truncated, info
+        # Strong dtypes (a solver's step count is weak-typed), as `reset`'s info has.
+        info = {name: jnp.asarray(value, dtype=value.dtype) for name, value in info.items()}
+        return new_state, new_observation, reward, terminated, truncated, {**info, "final_observation": observation}
 
 
 def _gather_dynamics(cls, fields, keywords) -> None:
@@ -477,8 +479,8 @@ def rollout(
 
 __all__ = [
     "AbstractEnv",
+    "Attempt",
     "EnvState",
-    "GymnasiumSpec",
     "StepKeys",
     "dynamics",
     "episode_limit",

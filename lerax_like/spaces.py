@@ -1,6 +1,13 @@
-"""Action and observation spaces with JAX-native `sample` and `contains`."""
+"""Action and observation spaces with JAX-native `sample` and `contains`.
+
+A `Box`'s bounds are NumPy arrays whenever they are known without tracing, also inside a
+jitted trainer that closes over its env (`eager_spaces`), so that a trainer can read them
+with `np.asarray` (network sizes, clipping constants) as it reads gymnax's. Bounds computed
+from traced parameters (an env passed as an argument of `jit` or `vmap`) stay traced.
+"""
 
 import abc
+import functools
 
 import equinox as eqx
 import jax
@@ -88,13 +95,11 @@ class Box(AbstractSpace):
     shape: tuple[int, ...] = eqx.field(static=True)
 
     def __init__(self, low: ArrayLike, high: ArrayLike, shape: tuple[int, ...] | None = None):
-        low = jnp.asarray(low, dtype=float)
-        high = jnp.asarray(high, dtype=float)
         if shape is None:
-            shape = jnp.broadcast_shapes(low.shape, high.shape)
+            shape = np.broadcast_shapes(np.shape(low), np.shape(high))
         self.shape = tuple(shape)
-        self.low = jnp.broadcast_to(low, self.shape)
-        self.high = jnp.broadcast_to(high, self.shape)
+        self.low = _bound(low, self.shape)
+        self.high = _bound(high, self.shape)
 
     def sample(self, *, key: Key) -> Array:
         # As Gymnasium: uniform on bounded coordinates, exponential on half-bounded ones,
@@ -148,6 +153,33 @@ class Box(AbstractSpace):
         return f"Box({bounds}shape={self.shape})"
 
 
+def _bound(value: ArrayLike, shape: tuple[int, ...]) -> Array | np.ndarray:
+    """A bound in JAX's default float dtype: NumPy when concrete, traced otherwise."""
+    dtype = jax.dtypes.canonicalize_dtype(float)
+    if isinstance(value, jax.core.Tracer):
+        return jnp.broadcast_to(value.astype(dtype), shape)
+    return np.broadcast_to(np.asarray(value, dtype=dtype), shape)
+
+
+def eager_spaces(env_class: type) -> None:
+    """Make `env_class`'s own `action_space` and `observation_space` properties compute with
+    `jax.ensure_compile_time_eval`: inside a trace, bounds that depend only on concrete
+    values (an env closed over by a jitted function) are computed at once, as NumPy."""
+    for name in ("action_space", "observation_space"):
+        space = env_class.__dict__.get(name)
+        if isinstance(space, property):
+            setattr(env_class, name, property(_eager(space.fget), doc=space.__doc__))
+
+
+def _eager(fget):
+    @functools.wraps(fget)
+    def get(env):
+        with jax.ensure_compile_time_eval():
+            return fget(env)
+
+    return get
+
+
 def _as_array(x: ArrayLike, name: str, space: AbstractSpace) -> Array:
     try:
         return jnp.asarray(x)
@@ -155,4 +187,4 @@ def _as_array(x: ArrayLike, name: str, space: AbstractSpace) -> Array:
         raise TypeError(f"{name} must be an element of {space}, got {x!r}") from error
 
 
-__all__ = ["AbstractSpace", "Box", "Discrete"]
+__all__ = ["AbstractSpace", "Box", "Discrete", "eager_spaces"]

@@ -1,12 +1,18 @@
 """Tests run in float64 with strict dtype promotion, as diffrax's own suite does."""
 
+import functools
 import importlib
+import os
 import pathlib
+import re
+import tomllib
+from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from packaging.requirements import Requirement
 
 
 jax.config.update("jax_enable_x64", True)
@@ -56,3 +62,95 @@ def pytest_collection_modifyitems(config, items):
     for item in items:
         if item.path.suffix == ".ipynb":
             item.add_marker(pytest.mark.slow)
+
+
+# CI installs the test extra; a test skipped there because something that extra installs
+# is missing is a broken install, not a test that does not apply, and must fail. Elsewhere
+# (a contributor without stable-baselines3, say) it stays a skip, and so does a skip for a
+# dependency that the test extra leaves out (gymnax's pin on Gymnasium, say). The extra is
+# read from pyproject.toml, so that adding a dependency there is all it takes. Two forms
+# of skip are recognised, those the suite uses: pytest.importorskip's reason ("could not
+# import 'scipy.linalg'"), whose top-level module must be a distribution's name (as
+# scipy, stable_baselines3), and an install hint ("pip install -e '.[docs]'",
+# "pip install matplotlib").
+IMPORT_SKIP = re.compile(r"could not import '([\w.]+)'")
+INSTALL_HINT = re.compile(r"pip install\s+([^);]*)")
+
+
+def _normalised(name: str) -> str:
+    return re.sub(r"[-_.]+", "_", name).lower()
+
+
+class ExtraInstalls(NamedTuple):
+    """What installing the package's `test` extra brings, by normalised name."""
+
+    package: str
+    distributions: frozenset[str]  # the package's own dependencies included
+    extras: frozenset[str]  # `test` and the extras it includes
+
+
+@functools.cache
+def _test_extra(pyproject: pathlib.Path) -> ExtraInstalls:
+    project = tomllib.loads(pyproject.read_text())["project"]
+    package = _normalised(project["name"])
+    optional = project.get("optional-dependencies", {})
+    distributions = {_normalised(Requirement(line).name) for line in project.get("dependencies", [])}
+    extras, pending = set(), ["test"]
+    while pending:
+        extra = _normalised(pending.pop())
+        if extra in extras:
+            continue
+        extras.add(extra)
+        for line in optional.get(extra, []):
+            requirement = Requirement(line)
+            if _normalised(requirement.name) == package:
+                pending.extend(requirement.extras)
+            else:
+                distributions.add(_normalised(requirement.name))
+    return ExtraInstalls(package, frozenset(distributions), frozenset(extras))
+
+
+def _installed_by_the_test_extra(reason: str, test_extra: ExtraInstalls) -> bool:
+    imported = IMPORT_SKIP.search(reason)
+    if imported and _normalised(imported.group(1).split(".")[0]) in test_extra.distributions:
+        return True
+    hint = INSTALL_HINT.search(reason)
+    for target in hint.group(1).split() if hint else ():
+        target = target.strip("'\"")
+        if not target or target.startswith("-"):
+            continue
+        name, _, wanted = target.partition("[")
+        wanted = {_normalised(extra) for extra in wanted.rstrip("]").split(",") if extra.strip()}
+        # "." (or the package's name) is the package, with the extras in its brackets.
+        if name == "." or _normalised(name) == test_extra.package:
+            if wanted <= test_extra.extras:
+                return True
+        elif _normalised(name) in test_extra.distributions:
+            return True
+    return False
+
+
+def _in_ci() -> bool:
+    return os.environ.get("CI", "").strip().lower() not in ("", "0", "false", "no")
+
+
+def _fail_if_missing_from_the_test_extra(report, config):
+    if not (report.skipped and _in_ci() and isinstance(report.longrepr, tuple)):
+        return report
+    reason = report.longrepr[2].removeprefix("Skipped: ")
+    pyproject = config.rootpath / "pyproject.toml"
+    if pyproject.is_file() and _installed_by_the_test_extra(reason, _test_extra(pyproject)):
+        report.outcome = "failed"
+        report.longrepr = f"CI is set, and the test extra (pyproject.toml) should have installed this: {reason}"
+    return report
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_make_collect_report(collector):
+    # A module-level pytest.importorskip skips the whole module at collection.
+    return _fail_if_missing_from_the_test_extra((yield), collector.config)
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_makereport(item, call):
+    return _fail_if_missing_from_the_test_extra((yield), item.config)

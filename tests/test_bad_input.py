@@ -141,7 +141,7 @@ def test_gymnasium_state_of_wrong_shape_is_refused_by_name():
 
 
 def _array_fields(module):
-    return [field.name for field in dataclasses.fields(module) if eqx.is_array(getattr(module, field.name))]
+    return [field.name for field in dataclasses.fields(module) if eqx.is_inexact_array(getattr(module, field.name))]
 
 
 @pytest.mark.parametrize("name", list(ll.SCENES))

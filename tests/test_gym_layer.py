@@ -265,7 +265,7 @@ def test_float64_is_scoped_to_the_wrapper():
 def test_invalid_actions_are_refused(env_id):
     env = gymnasium.make(registered(env_id)).unwrapped
     ref_env = gymnasium.make(reference_id(env_id)).unwrapped
-    with pytest.raises(AssertionError, match="reset"):
+    with pytest.raises(RuntimeError, match="reset"):
         env.step(env.action_space.sample())
     env.reset(seed=0)
     ref_env.reset(seed=0)
@@ -274,7 +274,8 @@ def test_invalid_actions_are_refused(env_id):
             if env_id != "lerax_like/Acrobot-v1":  # Gymnasium's Acrobot does not check
                 with pytest.raises(AssertionError):
                     ref_env.step(action)
-            with pytest.raises(AssertionError, match="invalid"):
+            # A ValueError, not Gymnasium's assert: it holds under `python -O`.
+            with pytest.raises(ValueError, match=r"action .* is not in Discrete"):
                 env.step(action)
     else:
         # Gymnasium clips a continuous action; it must still be one number.
@@ -398,7 +399,9 @@ def test_vector_env_matches_gymnasiums_vector_cartpole():
             # Next-step autoreset, stated directly: the step after an end restarts the env.
             assert np.all(reward[previous_done] == 0.0), context
             assert not np.any(terminated[previous_done] | truncated[previous_done]), context
-            assert info["solver_ok"].shape == (num_envs,) and np.all(info["solver_ok"])
+            # A restarted env has only its reset's (empty) info, as in Gymnasium's SyncVectorEnv.
+            np.testing.assert_array_equal(info.get("_solver_ok", np.zeros(num_envs, dtype=bool)), ~previous_done)
+            assert "solver_ok" not in info or np.all(info["solver_ok"])
             ends += int(np.sum(terminated | truncated))
             restarts += int(np.sum(previous_done))
             previous_done = terminated | truncated
@@ -446,7 +449,7 @@ def test_vector_env_refuses_invalid_actions():
     for actions in (np.array([0, 1, 2]), np.array([0, 1])):
         with pytest.raises(AssertionError):
             reference.step(actions)
-        with pytest.raises(AssertionError, match="invalid"):
+        with pytest.raises(ValueError, match=r"actions"):
             ours.step(actions)
 
 

@@ -452,13 +452,13 @@ def test_writing_gymnasiums_attributes_changes_the_physics_as_in_gymnasium(env_i
     for name in _attributes(env_id):
         ours = gymnasium.make(env_id, max_episode_steps=-1)
         reference = gymnasium.make(reference_id(env_id), max_episode_steps=-1)
-        compiled = ours.unwrapped._split.step
+        compiled = ours.unwrapped.split.compiled.step
         value = ours.get_wrapper_attr(name)
         value = 0.7 * value if value != 0 else 0.01
         ours.set_wrapper_attr(name, value)
         _set_on_reference(reference.unwrapped, name, value)
         assert ours.get_wrapper_attr(name) == value
-        assert ours.unwrapped._split.step is compiled  # a new parameter, not a new program
+        assert ours.unwrapped.split.compiled.step is compiled  # a new parameter, not a new program
         actions = _actions(ours, 60, seed=0)
         run, reference_run = _trajectory(ours, actions, seed=0), _trajectory(reference, actions, seed=0)
         assert run[0].shape == reference_run[0].shape, name

@@ -72,16 +72,52 @@ def test_declared_order_is_the_convergence_order(name):
         assert abs(slope - preset.order) < 0.3, (name, slope, errors)
 
 
-def test_declared_stages_and_evaluations_match_the_tableaux():
+@pytest.mark.parametrize("name", [name for name in SOLVERS if not SOLVERS[name].implicit])
+def test_evaluations_per_step_match_a_count(name):
+    # Count the evaluations the solver actually makes over three constant steps, with a
+    # host callback: `solver_facts` reads them from the tableau (or knows them, for the
+    # Euler methods), the count does not.
+    calls = []
+    dynamics = ll.CartPoleDynamics()
+
+    def counted(t, y, u):
+        jax.debug.callback(lambda: calls.append(1))
+        return dynamics.vector_field(t, y, u)
+
+    integrator = ll.make_integrator(name, diffrax.ConstantStepSize(), substeps=3)
+    with jax.enable_x64(True):
+        y1, info = integrator.integrate(
+            counted, jnp.array([0.0, 0.1, 0.3, -0.2]), jnp.array([3.0]), 0.06,
+            velocity_indices=dynamics.velocity_indices,
+        )
+        jax.block_until_ready(y1)
+    assert bool(info["solver_ok"])
+    facts = ll.solver_facts(integrator.solver)
+    assert facts == ll.solver_facts(SOLVERS[name].make_solver())
+    assert (SOLVERS[name].stages, SOLVERS[name].evaluations_per_step) == (facts.stages, facts.evaluations_per_step)
+    assert len(calls) == 3 * facts.evaluations_per_step + facts.evaluations_per_solve, (name, len(calls))
+    if name != "semi_implicit_euler":  # the partitioned method evaluates twice in one stage each
+        assert facts.evaluations_per_rejected_step == facts.stages
+
+
+def test_error_estimates_and_kinds_match_the_solvers():
+    # What an adaptive controller needs: an error output from a step, whatever the solver.
     for name, preset in SOLVERS.items():
-        solver = preset.make_solver()
+        solver = preset.make_fixed_step_solver() if preset.implicit else preset.make_solver()
         assert preset.implicit == isinstance(solver, diffrax.AbstractImplicitSolver), name
-        tableau = getattr(solver, "tableau", None)
-        if isinstance(tableau, diffrax.ButcherTableau):
-            assert preset.stages == len(tableau.c) + 1, name
-            if not preset.implicit:
-                assert preset.evaluations_per_step == preset.stages - int(tableau.fsal), name
-            assert preset.error_estimate == bool(np.any(np.asarray(tableau.b_error) != 0)), name
+        term = diffrax.ODETerm(lambda t, y, args: -y)
+        y0 = jnp.ones(2)
+        if name == "semi_implicit_euler":
+            term = ll.integrate.ProjectedODETerm(lambda t, y, args: jnp.stack([y[1], -y[0]]), velocity_indices=(1,))
+        t0, t1 = jnp.asarray(0.0), jnp.asarray(0.1)
+        error = solver.step(term, t0, t1, y0, None, solver.init(term, t0, t1, y0, None), made_jump=False)[1]
+        has_error = error is not None and bool(jnp.any(error != 0))
+        assert preset.error_estimate == has_error, name
+
+
+def test_solver_facts_refuse_a_solver_of_several_terms():
+    with pytest.raises(ValueError, match="one ODE term"):
+        ll.solver_facts(diffrax.KenCarp3())
 
 
 def test_register_a_solver_and_use_it_by_name():
@@ -128,3 +164,18 @@ def test_solver_specs():
     for spec, match in [("nope", "unknown solver"), ("diffrax:Nope", "no attribute"), ("math:pi", "no diffrax")]:
         with pytest.raises(ValueError, match=match):
             solver_from_spec(spec)
+
+
+def test_the_solver_listing_names_every_column_and_fills_every_count():
+    from lerax_like.cli import format_solver_table
+
+    lines = format_solver_table().splitlines()
+    header = lines[0].split("  ")
+    columns = [cell.strip() for cell in header if cell.strip()]
+    assert columns == ["name", "order", "stages", "f-evals/step", "kind", "error estimate", "default controller",
+                       "description"]
+    rows = {line.split()[0]: line.split() for line in lines[1:]}
+    assert set(rows) == set(SOLVERS)
+    for name, cells in rows.items():
+        assert cells[1] == str(SOLVERS[name].order) and cells[2] == str(SOLVERS[name].stages), cells
+    assert rows["semi_implicit_euler"][2:4] == ["2", "2"]

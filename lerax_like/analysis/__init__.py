@@ -1,6 +1,14 @@
 """Studies of the envs' numerics: work-precision, convergence orders and invariant drift
 against SciPy; gradient checks and gradient accuracy.
 
+The library, one concept per module: `sweeps` (solver settings), `measurements` (what a
+study measures of one setting), `reference` (SciPy's solutions), `study` (the
+work-precision runner), `verdict` (settings that coincide, resolved timings, the
+cheapest), `convergence` (fitted orders), `gradcheck`, `gradient_accuracy`, the
+gradient-variance study (`rollout_cost`, `gradient_estimators`, `chaos`,
+`gradient_variance`), `figures`, `report` (a study's files and tables) and `recording`,
+the one writer of CSV, JSON records and figures, which `benchmarks/` uses too.
+
 Needs the `study` extra (SciPy for the reference; matplotlib for plots; tqdm for the
 progress bar): `pip install 'lerax_like[study]'`.
 """

@@ -47,7 +47,7 @@ import jax.random as jr
 import numpy as np
 
 from .._fields import check_count
-from ..integrate import SOLVER_PRESETS
+from ..integrate import SOLVERS
 from ..scenes import SCENES
 from .chaos import (
     finite_time_lyapunov as finite_time_lyapunov,
@@ -150,8 +150,7 @@ class GradientVarianceConfig:
         if self.scene not in SCENES:
             raise ValueError(f"unknown scene {self.scene!r}; known scenes: {', '.join(SCENES)}")
         for solver in self.solvers:
-            if solver not in SOLVER_PRESETS:
-                raise ValueError(f"solver must be one of {SOLVER_PRESETS}, got {solver!r}")
+            SOLVERS.find(solver)  # the one message for a name that is no preset
         if not self.solvers:
             raise ValueError("solvers must name at least one solver preset")
         if not self.horizons:

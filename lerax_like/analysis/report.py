@@ -49,7 +49,7 @@ mean square) and `linf_error` (maximum) are over a dense grid of `dense_points` 
 step including its end, from the solver's own dense output against SciPy's (as
 DiffEqDevTools' `L2` and `Linf`); all maximal over the batch. `seconds` is the minimum
 over repeats of the whole batch's run, `seconds_spread` (median - min) / min over the
-repeats, `timing_floor` the time of an empty compiled call; `steps` accepted,
+repeats (empty for a single repeat), `timing_floor` the time of an empty compiled call; `steps` accepted,
 `rejected_steps` rejected solver steps and `vector_field_evaluations` per trajectory;
 `dt` the solver's step (fixed-step rows)."""
 

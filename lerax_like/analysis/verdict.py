@@ -144,7 +144,8 @@ def cheapest_at(
         if not candidates:
             return None
         best = min(candidates, key=lambda row: row["seconds"])
-        margin = 1.0 + max(UNRESOLVED_SPREAD, best.get("seconds_spread", 0.0) or 0.0)
+        spread = best.get("seconds_spread", math.nan)
+        margin = 1.0 + (UNRESOLVED_SPREAD if math.isnan(spread) else max(UNRESOLVED_SPREAD, spread))
         tied = [row for row in candidates if row is not best and row["seconds"] <= margin * best["seconds"]]
     else:
         candidates = [row for row in candidates if _known(row, cost)]

@@ -1,14 +1,20 @@
 """The Gymnasium layer: `gymnasium.make("lerax_like/CartPole-v1")` and friends.
 
 The only part of the package that imports gymnasium. On `import lerax_like` the ids of
-`SPECS` whose scenes exist are registered, with string entry points naming the classes
+`SPECS` (the scenes of `GYMNASIUM_SPECS`) are registered, with string entry points naming the classes
 of `lerax_like.gym.envs` (one `GymnasiumEnv` and one `GymnasiumVectorEnv` subclass per
 id: `CartPoleEnv` behind `gymnasium.make`, `CartPoleVectorEnv` behind
 `gymnasium.make_vec(..., vectorization_mode="vector_entry_point")`).
 """
 
+from ._batch import Batch as Batch, Outcome as Outcome
 from ._env import GymnasiumEnv as GymnasiumEnv
 from ._registration import register_envs as register_envs
-from ._specs import GymSpec as GymSpec, SPECS as SPECS
+from ._specs import (
+    GYMNASIUM_SPECS as GYMNASIUM_SPECS,
+    GymnasiumSpec as GymnasiumSpec,
+    GymSpec as GymSpec,
+    SPECS as SPECS,
+)
 from ._vector import GymnasiumVectorEnv as GymnasiumVectorEnv
 from . import envs as envs

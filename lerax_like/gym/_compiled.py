@@ -1,4 +1,4 @@
-"""The compiled steps behind the Gymnasium wrappers, and the precision scope they run in.
+"""The compiled steps behind the Gymnasium and SB3 layers, and the precision scope they run in.
 
 A scene is split once into its array leaves and its static rest. The jitted functions
 take the leaves, packed into one vector of the layer's dtype (float64 by default, as
@@ -8,13 +8,17 @@ rest, so every env of the same configuration (`check_env` and `make_vec` build s
 shares one compilation. This avoids `eqx.filter_jit`, whose per-call partitioning would
 dominate a step this small; and every argument and result of a jitted call costs a few
 microseconds of dispatch, as much as a whole batched CartPole step, hence the packing of
-the inputs into few arrays and of the results into one.
+the results into few arrays.
+
+Every function steps through `AbstractEnv.advance` (the step semantics), `truncate`
+(the time limit) and `observation`; what the layer adds is Gymnasium's float32
+observation (`layer_advance`).
 """
 
 import functools
 import math
 from collections.abc import Callable
-from typing import Any
+from typing import Any, NamedTuple
 
 import equinox as eqx
 import jax
@@ -57,8 +61,41 @@ def build_scene(scene_cls: type[AbstractEnv], kwargs: dict[str, Any]) -> Abstrac
         return scene_cls(**kwargs)
 
 
+class Compiled(NamedTuple):
+    """The jitted functions of one scene configuration. Each takes the packed parameters
+    first and the carried key (None for a deterministic scene) among its arguments, and
+    returns the key to carry next.
+
+    - `step(parameters, inputs, key) -> (outcome, key)`: one env from `inputs`, the
+      action, step count and state packed by `pack_step`; `outcome` packs the next state,
+      the float32 observation, the reward, terminated, `solver_ok`, `solver_steps` and
+      `action_ok` (`unpack_step`).
+    - `observe(parameters, y, steps, key) -> (observation, key)`: one env's float32 observation.
+    - `batch_observe(parameters, y, steps, key) -> (observation, key)`: all envs'.
+    - `batch_advance(parameters, y, steps, action, key, observation) -> (y, steps,
+      observation, outcome, key)`: all envs step (`observation`, the observation of `y`
+      returned last, is what a failed step returns again); `outcome` has one row each for
+      the reward, terminated, truncated (`AbstractEnv.truncate`), `solver_ok`,
+      `solver_steps` and `action_ok`.
+    - `batch_advance_or_restart(..., observation, mask, starts)`: as `batch_advance`,
+      except that the envs of `mask` restart from `starts` instead of stepping, with
+      their fresh observation, reward 0, no end (Gymnasium's next-step autoreset). One
+      compilation serves every pattern of restarts.
+    - `batch_restart(parameters, y, steps, key, observation, mask, starts) -> (y, steps,
+      observation, key)`: the envs of `mask` restart from `starts` (same-step autoreset,
+      a masked reset).
+    """
+
+    step: Callable
+    observe: Callable
+    batch_observe: Callable
+    batch_advance: Callable
+    batch_advance_or_restart: Callable
+    batch_restart: Callable
+
+
 class SplitScene:
-    """A scene as packed parameters and a static rest, with the compiled functions for it.
+    """A scene as packed parameters and a static rest, with its `Compiled` functions.
 
     The functions compute in `dtype`: floating-point leaves are cast to it whatever the
     dtype the scene was built in, and every call runs in `precision(dtype)`.
@@ -78,10 +115,7 @@ class SplitScene:
             flat = [jnp.ravel(leaf).astype(real) for leaf in leaves]
             self.parameters = jnp.concatenate([*flat, jnp.zeros(0, real)])
         self.scene = scene
-        functions = _functions(treedef, static, layout)
-        self.step, self.observe, self.vector_step, self.vector_observe, self.vector_advance, self.vector_restart = (
-            functions
-        )
+        self.compiled: Compiled = _functions(treedef, static, layout)
 
     def precision(self):
         return precision(self.dtype)
@@ -92,57 +126,17 @@ class SplitScene:
         with self.precision():
             return jr.key(int(seed) % 2**32)
 
-
-class HoldsScene:
-    """The `scene` attribute the Gymnasium wrappers share: the functional env behind them,
-    split and compiled (`self._split`) in the wrapper's dtype (`_dtype`), with the key its
-    random parts carry."""
-
-    _split: SplitScene
-    _jax_key: jax.Array | None
-    _initial_bounds: tuple[np.ndarray, np.ndarray]
-    _dtype: str = "float64"
-
-    @property
-    def scene(self) -> AbstractEnv:
-        """The functional env behind the wrapper. Assign a modified scene to change parameters."""
-        return self._split.scene
-
-    @scene.setter
-    def scene(self, scene: AbstractEnv) -> None:
-        self._split = SplitScene(scene, self._dtype)
-        self._observation = None  # a vector env's last observation, stale under a new scene
-        with float64():
-            self._initial_bounds = tuple(np.array(bound, dtype=np.float64) for bound in scene.initial_bounds)
-        # The key of a stochastic scene's random parts starts again from seed 0 (as at
-        # construction; `reset(seed=...)` reseeds it); a deterministic scene needs none.
-        self._jax_key = self._split.key(0)
-
-    # Pickling (to save, checkpoint, or ship an env to a worker process): the compiled
-    # functions and the renderer are dropped, and JAX arrays (the scene's leaves, the
-    # key, a vector env's states) travel as NumPy arrays, so that a process without
-    # float64 enabled loads them in float64. On load the scene is split again: its
-    # functions come from the cache when this process compiled them already, else they
-    # compile on the first call. Everything else (the NumPy generator included) is
-    # copied, so a loaded copy continues exactly as the original.
-
-    def __getstate__(self) -> dict[str, Any]:
-        state = {name: value for name, value in self.__dict__.items() if name not in ("_split", "_renderer")}
-        state["_scene"] = self._split.scene
-        return jax.tree.map(_to_host, state)
-
-    def __setstate__(self, state: dict[str, Any]) -> None:
-        with float64():
-            state = jax.tree.map(_to_device, state, is_leaf=lambda x: isinstance(x, _HostArray))
-        scene = state.pop("_scene")
-        self.__dict__.update(state, _renderer=None)
-        self.scene = scene
-        # What assigning a scene restarts (the key, a vector env's last observation) as it was.
-        self.__dict__.update(state)
+    def carried_key(self, key: jax.Array | None) -> jax.Array | None:
+        """The key to carry on with under this scene: `key` if the scene is stochastic
+        (a parameter write does not restart it), a fresh one if it had none, else None."""
+        if not self.scene.stochastic:
+            return None
+        return self.key(0) if key is None else key
 
 
-class _HostArray:
-    """A JAX array (or key array) on the host, for pickling."""
+class HostArray:
+    """A JAX array (or key array) on the host, for pickling: a process without float64
+    enabled loads it back in its own dtype."""
 
     def __init__(self, value: jax.Array):
         self.is_key = jax.dtypes.issubdtype(value.dtype, jax.dtypes.prng_key)
@@ -150,21 +144,50 @@ class _HostArray:
         self.data = np.asarray(jax.random.key_data(value) if self.is_key else value)
 
 
-def _to_host(value):
-    return _HostArray(value) if isinstance(value, jax.Array) else value
+def to_host(value):
+    """`value` with its JAX arrays as `HostArray`s (a pytree map)."""
+    return jax.tree.map(lambda x: HostArray(x) if isinstance(x, jax.Array) else x, value)
 
 
-def _to_device(value):
-    if not isinstance(value, _HostArray):
-        return value
-    if value.is_key:
-        return jr.wrap_key_data(jnp.asarray(value.data), impl=value.implementation)
-    return jnp.asarray(value.data)
+def to_device(value):
+    """The inverse of `to_host`, in float64."""
+
+    def load(x):
+        if not isinstance(x, HostArray):
+            return x
+        if x.is_key:
+            return jr.wrap_key_data(jnp.asarray(x.data), impl=x.implementation)
+        return jnp.asarray(x.data)
+
+    with float64():
+        return jax.tree.map(load, value, is_leaf=lambda x: isinstance(x, HostArray))
 
 
 def pack_step(y: np.ndarray, steps: int, action) -> np.ndarray:
-    """The inputs of `SplitScene.step` as one float64 array: one host-to-device transfer."""
+    """The inputs of `Compiled.step` as one float64 array: one host-to-device transfer."""
     return np.concatenate([np.ravel(action), [steps], y], dtype=np.float64)
+
+
+class StepOutcome(NamedTuple):
+    """`Compiled.step`'s packed outcome, unpacked on the host."""
+
+    state: np.ndarray
+    observation: np.ndarray
+    reward: float
+    terminated: bool
+    solver_ok: bool
+    solver_steps: int
+    action_ok: bool
+
+
+def unpack_step(outcome: np.ndarray, state_size: int, observation_size: int) -> StepOutcome:
+    n, m = state_size, observation_size
+    reward, terminated, solver_ok, solver_steps, action_ok = outcome[n + m :].tolist()
+    # The observation was computed in float32; the float64 round trip is exact.
+    return StepOutcome(
+        outcome[:n].copy(), outcome[n : n + m].astype(np.float32), float(reward), bool(terminated),
+        bool(solver_ok), int(solver_steps), bool(action_ok),
+    )
 
 
 def _cache(function: Callable) -> Callable:
@@ -180,8 +203,27 @@ def _cache(function: Callable) -> Callable:
     return wrapper
 
 
+def layer_advance(scene: AbstractEnv, y, steps, action, key, previous):
+    """`scene.advance` with the float32 observation Gymnasium returns: `(y, steps,
+    observation, reward, terminated, info)`, `previous` being the float32 observation of `y`.
+
+    The two halves of `advance`, with the cast between them: a finite float64 state can
+    still overflow float32's range in the observation, and such a step fails by
+    `advance`'s own rule (`conclude`: pre-step state, `previous`, the worst reward,
+    terminated), so nothing non-finite reaches an agent. Passing `previous` (which the
+    layer holds) spares observing `y` again, a second observation per step.
+    """
+    state = EnvState(y=y, steps=steps)
+    trial = scene.attempt(state, action, key=key)
+    observation = trial.observation.astype(jnp.float32)
+    info = {**trial.info, "solver_ok": trial.info["solver_ok"] & jnp.all(jnp.isfinite(observation))}
+    trial = trial._replace(observation=observation, info=info)
+    state, observation, reward, terminated, info = scene.conclude(state, trial, previous, key=key)
+    return state.y, state.steps, observation, reward, terminated, info
+
+
 @_cache
-def _functions(treedef, static, layout):
+def _functions(treedef, static, layout) -> Compiled:
     def scene_of(parameters) -> AbstractEnv:
         leaves, start = [], 0
         for shape, dtype in layout:
@@ -198,49 +240,36 @@ def _functions(treedef, static, layout):
         key, call_key = jr.split(key)
         return key, (call_key if num_envs is None else jr.split(call_key, num_envs))
 
-    def advance(scene, y, steps, action, key, observation_before=None):
-        # The functional env's step semantics (`AbstractEnv.advance`), with the float32
-        # observation Gymnasium returns checked for finiteness after the cast: a finite
-        # float64 state can still overflow float32. The vector steps pass the observation
-        # of `y` they returned last, so that `advance` does not compute it again.
-        state, observation, reward, terminated, info = scene.advance(
-            EnvState(y=y, steps=steps), action, key=key, observation_dtype=jnp.float32,
-            observation_before=observation_before,
-        )
-        return state.y, observation, reward, terminated, info
-
     def observe_one(scene, y, steps, key):
         key = step_keys(key, scene.stochastic).observation
         return scene.observation(EnvState(y=y, steps=steps), key=key).astype(jnp.float32)
 
-    def vector_actions(scene, action):
-        if isinstance(scene.action_space, Discrete):
-            return action.astype(int)
-        return action.astype(parameters_dtype(scene))
-
-    def parameters_dtype(scene):
-        return jnp.asarray(scene.dt).dtype
-
-    def vector_advance_all(scene, y, steps, action, key, max_episode_steps, observation):
-        """`advance` of every env (`observation`: the observation of `y`), and the time limit."""
+    def observe_all(scene, y, steps, key):
         key, keys = next_key(key, num_envs=y.shape[0])
-        action = vector_actions(scene, action)
-        next_y, observation, reward, terminated, info = jax.vmap(advance, in_axes=(None, 0, 0, 0, 0, 0))(
+        return jax.vmap(observe_one, in_axes=(None, 0, 0, 0))(scene, y, steps, keys), key
+
+    def advance_all(scene, y, steps, action, key, observation):
+        key, keys = next_key(key, num_envs=y.shape[0])
+        y, steps, observation, reward, terminated, info = jax.vmap(layer_advance, in_axes=(None, 0, 0, 0, 0, 0))(
             scene, y, steps, action, keys, observation
         )
-        steps = steps + 1
-        truncated = steps >= max_episode_steps
-        return key, next_y, steps, observation, reward, terminated, truncated, info
+        truncated = jax.vmap(scene.truncate)(EnvState(y=y, steps=steps))
+        return y, steps, observation, (reward, terminated, truncated, info), key
 
     def outcome_rows(reward, terminated, truncated, info):
-        # One array for the host besides the observation: the reward, the flags and the
-        # solver info, one row each (rows of it are contiguous arrays on the host).
-        flags = (reward, terminated, truncated, info["solver_ok"], info["solver_steps"])
-        return jnp.stack([jnp.astype(x, reward.dtype) for x in flags])
+        # One array for the host besides the observation: a row each (rows of it are
+        # contiguous arrays on the host).
+        rows = (reward, terminated, truncated, info["solver_ok"], info["solver_steps"], info["action_ok"])
+        return jnp.stack([jnp.astype(x, reward.dtype) for x in rows])
+
+    def restart(scene, y, steps, key, observation, mask, starts):
+        y = jnp.where(mask[:, None], starts, y)
+        steps = jnp.where(mask, 0, steps)
+        fresh, key = observe_all(scene, starts, steps, key)
+        return y, steps, jnp.where(mask[:, None], fresh, observation), key
 
     @jax.jit
     def step(parameters, inputs, key):
-        """One step from `inputs = [action..., steps, y...]`, packed by `pack_step`."""
         scene = scene_of(parameters)
         space = scene.action_space
         size = math.prod(space.shape)
@@ -249,84 +278,61 @@ def _functions(treedef, static, layout):
             action = action.astype(int)
         steps, y = inputs[size].astype(int), inputs[size + 1 :]
         key, step_key = next_key(key)
-        next_y, observation, reward, terminated, info = advance(scene, y, steps, action, step_key)
-        # One array for the host: the next state, the (float32) observation, the reward,
-        # the flag and the solver info.
-        flags = (reward, terminated, info["solver_ok"], info["solver_steps"])
-        flags = jnp.stack([jnp.astype(x, next_y.dtype) for x in flags])
-        return jnp.concatenate([next_y, observation.astype(next_y.dtype), flags]), key
+        previous = observe_one(scene, y, steps, None if step_key is None else jr.fold_in(step_key, 5))
+        y, _, observation, reward, terminated, info = layer_advance(scene, y, steps, action, step_key, previous)
+        rows = (reward, terminated, info["solver_ok"], info["solver_steps"], info["action_ok"])
+        rows = jnp.stack([jnp.astype(x, y.dtype) for x in rows])
+        return jnp.concatenate([y, observation.astype(y.dtype), rows]), key
 
     @jax.jit
     def observe(parameters, y, steps, key):
-        scene = scene_of(parameters)
         key, observation_key = next_key(key)
-        return observe_one(scene, y, steps, observation_key), key
+        return observe_one(scene_of(parameters), y, steps, observation_key), key
 
     @jax.jit
-    def vector_advance(parameters, y, steps, action, key, max_episode_steps, observation):
-        """All envs step (`advance`), none restarts: `(y, steps, observation, outcome, key)`.
-
-        `observation` is the observation of `y` (the last one returned), which a failed
-        step returns again.
-        The outcome rows are the reward, terminated, truncated (`steps >= max_episode_steps`),
-        `solver_ok` and `solver_steps`.
-        """
-        scene = scene_of(parameters)
-        key, next_y, steps, observation, reward, terminated, truncated, info = vector_advance_all(
-            scene, y, steps, action, key, max_episode_steps, observation
-        )
-        return next_y, steps, observation, outcome_rows(reward, terminated, truncated, info), key
+    def batch_observe(parameters, y, steps, key):
+        return observe_all(scene_of(parameters), y, steps, key)
 
     @jax.jit
-    def vector_step(parameters, y, steps, action, key, reset_mask, reset_y, max_episode_steps, observation):
-        """All envs step; then those whose episode ended at the previous step restart.
+    def batch_advance(parameters, y, steps, action, key, observation):
+        y, steps, observation, outcome, key = advance_all(scene_of(parameters), y, steps, action, key, observation)
+        return y, steps, observation, outcome_rows(*outcome), key
 
-        Gymnasium's next-step autoreset: a restarted env (`reset_mask`) continues from
-        `reset_y` and returns its fresh observation, reward 0, terminated and truncated
-        False. One compilation serves every time limit and every pattern of restarts;
-        a step where no env restarts is `vector_advance`, which skips all of this.
-        """
+    @jax.jit
+    def batch_advance_or_restart(parameters, y, steps, action, key, observation, mask, starts):
         scene = scene_of(parameters)
-        key, next_y, steps, observation, reward, terminated, truncated, info = vector_advance_all(
-            scene, y, steps, action, key, max_episode_steps, observation
+        y, steps, observation, (reward, terminated, truncated, info), key = advance_all(
+            scene, y, steps, action, key, observation
         )
-        # Restarted envs continue from `reset_y` with their fresh observation.
-        next_y = jnp.where(reset_mask[:, None], reset_y, next_y)
-        steps = jnp.where(reset_mask, 0, steps)
-        key, keys = next_key(key, num_envs=y.shape[0])
-        fresh = jax.vmap(observe_one, in_axes=(None, 0, 0, 0))(scene, reset_y, steps, keys)
-        observation = jnp.where(reset_mask[:, None], fresh, observation)
-        reward = jnp.where(reset_mask, 0, reward)
-        terminated = terminated & ~reset_mask
-        truncated = truncated & ~reset_mask
+        y, steps, observation, key = restart(scene, y, steps, key, observation, mask, starts)
+        reward = jnp.where(mask, 0, reward)
         info = {
-            "solver_ok": info["solver_ok"] | reset_mask,
-            "solver_steps": jnp.where(reset_mask, 0, info["solver_steps"]),
+            "solver_ok": info["solver_ok"] | mask,
+            "solver_steps": jnp.where(mask, 0, info["solver_steps"]),
+            "action_ok": info["action_ok"] | mask,
         }
-        return next_y, steps, observation, outcome_rows(reward, terminated, truncated, info), key
+        return y, steps, observation, outcome_rows(reward, terminated & ~mask, truncated & ~mask, info), key
 
     @jax.jit
-    def vector_restart(parameters, y, steps, key, reset_mask, reset_y, observation):
-        """Restart the envs of `reset_mask` from `reset_y`: `(y, steps, observation, key)`,
-        the observation being the fresh one for those envs and `observation` for the others.
+    def batch_restart(parameters, y, steps, key, observation, mask, starts):
+        return restart(scene_of(parameters), y, steps, key, observation, mask, starts)
 
-        What SB3's same-step autoreset needs after `vector_advance`.
-        """
-        scene = scene_of(parameters)
-        y = jnp.where(reset_mask[:, None], reset_y, y)
-        steps = jnp.where(reset_mask, 0, steps)
-        key, keys = next_key(key, num_envs=y.shape[0])
-        fresh = jax.vmap(observe_one, in_axes=(None, 0, 0, 0))(scene, reset_y, steps, keys)
-        return y, steps, jnp.where(reset_mask[:, None], fresh, observation), key
-
-    @jax.jit
-    def vector_observe(parameters, y, steps, key):
-        scene = scene_of(parameters)
-        key, observation_keys = next_key(key, num_envs=y.shape[0])
-        observation = jax.vmap(observe_one, in_axes=(None, 0, 0, 0))(scene, y, steps, observation_keys)
-        return observation, key
-
-    return step, observe, vector_step, vector_observe, vector_advance, vector_restart
+    return Compiled(step, observe, batch_observe, batch_advance, batch_advance_or_restart, batch_restart)
 
 
-__all__ = ["DTYPES", "HoldsScene", "SplitScene", "build_scene", "check_dtype", "float64", "pack_step", "precision"]
+__all__ = [
+    "DTYPES",
+    "Compiled",
+    "HostArray",
+    "SplitScene",
+    "StepOutcome",
+    "build_scene",
+    "check_dtype",
+    "float64",
+    "layer_advance",
+    "pack_step",
+    "precision",
+    "to_device",
+    "to_host",
+    "unpack_step",
+]

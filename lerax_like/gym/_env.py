@@ -6,13 +6,15 @@ import gymnasium
 import jax
 import numpy as np
 
+from ..env import AbstractEnv
 from . import _render
-from ._compiled import HoldsScene, build_scene, float64, pack_step
+from ._inputs import check_action, check_state
+from ._compiled import SplitScene, build_scene, float64, pack_step, to_device, to_host, unpack_step
 from ._spaces import to_gymnasium_space
 from ._specs import GymSpec
 
 
-class GymnasiumEnv(HoldsScene, gymnasium.Env):
+class GymnasiumEnv(gymnasium.Env):
     """A lerax_like scene as a Gymnasium env (what `gymnasium.make("lerax_like/<id>")` builds).
 
     Behaves as Gymnasium's own env of the same name:
@@ -23,21 +25,28 @@ class GymnasiumEnv(HoldsScene, gymnasium.Env):
       `terminated`/`truncated` (always False here: the time limit is the `TimeLimit`
       wrapper `gymnasium.make` adds, as for Gymnasium's envs);
     - `state` is the float64 state in Gymnasium's layout, readable and writable (for
-      model-predictive control, parity tests);
-    - invalid discrete actions are refused with Gymnasium's `AssertionError`; a continuous
-      action must have one element and is clipped by the scene.
+      model-predictive control, parity tests), and must be finite;
+    - an action that cannot be applied (a discrete one out of range or not an integer, a
+      non-finite continuous one) is refused with a `ValueError` naming it and the space
+      (Gymnasium's envs `assert`, which `python -O` drops); a continuous action must have
+      one element and is clipped by the scene.
+
+    A thin sibling of the vector env's `Batch`: one env, its host state (writable in
+    place, as Gymnasium's) and one compiled call per step that takes the action, the step
+    count and the state packed in one array.
 
     The step is the scene's `transition` integrated in float64 (a `jax.enable_x64` scope
     around every call, no global switch) with the scene's solver; the keywords of
     `gymnasium.make` (`solver="rk4"`, `stepsize_controller`, physical parameters) go to
-    the scene. The info holds the integrator's `solver_ok` and `solver_steps`; a failed
-    solve keeps the pre-step state and terminates the episode.
+    the scene. The info holds the integrator's `solver_ok` and `solver_steps`, and
+    `action_ok`; a failed solve keeps the pre-step state and terminates the episode.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 50}
 
     def __init__(self, spec: GymSpec, render_mode: str | None = None, **scene_kwargs: Any):
         self._gym_spec = spec
+        self._jax_key = None
         self.scene = build_scene(spec.scene, scene_kwargs)
         with float64():
             self.action_space = to_gymnasium_space(self.scene.action_space)
@@ -54,6 +63,23 @@ class GymnasiumEnv(HoldsScene, gymnasium.Env):
         self._warm_up()
 
     @property
+    def scene(self) -> AbstractEnv:
+        """The functional env behind the wrapper. Assign a modified scene to change parameters."""
+        return self._split.scene
+
+    @scene.setter
+    def scene(self, scene: AbstractEnv) -> None:
+        self._split = SplitScene(scene)
+        self._jax_key = self._split.carried_key(self._jax_key)
+        with float64():
+            self._initial_bounds = tuple(np.array(bound, dtype=np.float64) for bound in scene.initial_bounds)
+
+    @property
+    def split(self) -> SplitScene:
+        """The scene split into packed parameters and its compiled functions (`split.compiled.step`)."""
+        return self._split
+
+    @property
     def state(self) -> np.ndarray | None:
         """The state, float64 in Gymnasium's layout (None before the first reset)."""
         return self._state
@@ -63,43 +89,21 @@ class GymnasiumEnv(HoldsScene, gymnasium.Env):
         if value is None:
             self._state = None
             return
-        expected = self._initial_bounds[0].shape
-        try:
-            state = np.array(value, dtype=np.float64)
-        except (TypeError, ValueError) as error:
-            raise TypeError(f"state must be a real array of shape {expected}, got {value!r}") from error
-        if state.shape != expected:
-            raise ValueError(f"state must have shape {expected} ({self._gym_spec.name}'s state), got shape {state.shape}")
+        state = check_state(value, self._initial_bounds[0].shape, "float64", f"{self._gym_spec.name}'s state")
         self._state = state
 
     def _warm_up(self) -> None:
         # Compile the step and the observation now, not in the first step of training.
         # A state drawn as reset draws it, from a generator of its own (np_random untouched).
         y = self._gym_spec.initial_state(self._initial_bounds, np.random.default_rng(0), None, 1)[:, 0]
-        action = self._action(self._zero_action())
+        if isinstance(self.action_space, gymnasium.spaces.Discrete):
+            action = np.int64(self.action_space.start)
+        else:
+            action = np.zeros(self.action_space.shape, dtype=np.float64)
+        compiled, parameters = self._split.compiled, self._split.parameters
         with float64():
-            jax.block_until_ready(self._split.step(self._split.parameters, pack_step(y, 0, action), self._jax_key))
-            jax.block_until_ready(self._split.observe(self._split.parameters, y, np.int64(0), self._jax_key))
-
-    def _zero_action(self):
-        if isinstance(self.action_space, gymnasium.spaces.Discrete):
-            return np.int64(self.action_space.start)
-        return np.zeros(self.action_space.shape, dtype=np.float32)
-
-    def _action(self, action) -> np.ndarray:
-        if isinstance(self.action_space, gymnasium.spaces.Discrete):
-            # `self.action_space.contains(action)`, which Gymnasium's CartPole asserts, in
-            # half its time: an integer, or an integer array of shape (), in range.
-            integer = isinstance(action, int) or (
-                isinstance(action, (np.generic, np.ndarray)) and action.dtype.kind in "iu" and action.shape == ()
-            )
-            start = self.action_space.start
-            assert integer and start <= action < start + self.action_space.n, f"{action!r} ({type(action)}) invalid"
-            return np.int64(action)
-        array = np.asarray(action, dtype=np.float64)
-        if array.size != self.action_space.shape[0] or array.ndim > 1:
-            raise ValueError(f"the action must have shape {self.action_space.shape} ({self.action_space}), got {action!r}")
-        return array.reshape(self.action_space.shape)
+            jax.block_until_ready(compiled.step(parameters, pack_step(y, 0, action), self._jax_key))
+            jax.block_until_ready(compiled.observe(parameters, y, np.int64(0), self._jax_key))
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
@@ -109,7 +113,7 @@ class GymnasiumEnv(HoldsScene, gymnasium.Env):
         self._steps = 0
         self._last_action = None
         with float64():
-            observation, self._jax_key = self._split.observe(
+            observation, self._jax_key = self._split.compiled.observe(
                 self._split.parameters, self._state, np.int64(0), self._jax_key
             )
             observation = np.array(observation)
@@ -118,25 +122,22 @@ class GymnasiumEnv(HoldsScene, gymnasium.Env):
         return observation, {}
 
     def step(self, action) -> tuple[np.ndarray, SupportsFloat, bool, bool, dict[str, Any]]:
-        action = self._action(action)
-        assert self._state is not None, "Call reset before using step method."
+        action = check_action(self.action_space, action)
+        if self._state is None:
+            raise RuntimeError("Call reset before using step method.")
         with float64():
-            outcome, self._jax_key = self._split.step(
+            outcome, self._jax_key = self._split.compiled.step(
                 self._split.parameters, pack_step(self._state, self._steps, action), self._jax_key
             )
         # np.asarray, not jax.device_get: the latter costs far more for arrays this small.
-        outcome = np.asarray(outcome)
-        n, m = self._state.shape[0], self._observation_size
-        # The observation was computed in float32; the float64 round trip is exact.
-        observation = outcome[n : n + m].astype(np.float32)
-        reward, terminated, solver_ok, solver_steps = outcome[n + m :].tolist()
-        self._state = outcome[:n].copy()
+        outcome = unpack_step(np.asarray(outcome), self._state.shape[0], self._observation_size)
+        self._state = outcome.state
         self._steps += 1
         self._last_action = action
         if self.render_mode == "human":
             self.render()
-        info = {"solver_ok": bool(solver_ok), "solver_steps": int(solver_steps)}
-        return observation, float(reward), bool(terminated), False, info
+        info = {"solver_ok": outcome.solver_ok, "solver_steps": outcome.solver_steps, "action_ok": outcome.action_ok}
+        return outcome.observation, outcome.reward, outcome.terminated, False, info
 
     def render(self):
         if self.render_mode is None:
@@ -156,6 +157,22 @@ class GymnasiumEnv(HoldsScene, gymnasium.Env):
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
+
+    # Pickling (to save, checkpoint, or ship an env to a worker process): the compiled
+    # functions and the renderer are dropped, and JAX arrays (the scene's leaves, the key)
+    # travel as NumPy arrays, so that a process without float64 enabled loads them in
+    # float64. On load the scene is split again: its functions come from the cache when
+    # this process compiled them already. Everything else (the NumPy generator included)
+    # is copied, so a loaded copy continues exactly as the original.
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = {name: value for name, value in self.__dict__.items() if name not in ("_split", "_renderer")}
+        return to_host({**state, "_scene": self.scene})
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        state = to_device(state)
+        self._split = SplitScene(state.pop("_scene"))
+        self.__dict__.update(state, _renderer=None)
 
 
 __all__ = ["GymnasiumEnv"]

@@ -1,20 +1,145 @@
-"""What the Gymnasium layer knows of each registered id: read off the scenes in `SCENES`.
+"""What the Gymnasium layer knows of each registered id: a table keyed by scene class.
 
-A scene that declares a `GymnasiumSpec` (`CartPole.gymnasium`) is registered as
-`lerax_like/<name>`. Its start is drawn from the scene's own `initial_bounds`, with NumPy
-in the order of Gymnasium's calls, so that a seed gives Gymnasium's start; its renderer
-is Gymnasium's env class, fed the scene's state and the attributes the spec maps.
+A scene that stands for a Gymnasium env has a `GymnasiumSpec` in `GYMNASIUM_SPECS`
+(`CartPole: GymnasiumSpec("CartPole-v1", ...)`), and is registered as
+`lerax_like/<name>`. The scenes themselves know nothing of Gymnasium: its names
+(`masspole`), renderers and start conventions live here. The start is drawn from the
+scene's own `initial_bounds`, with NumPy in the order of Gymnasium's calls, so that a
+seed gives Gymnasium's start; the renderer is Gymnasium's env class, fed the scene's
+state and the attributes the spec maps.
 """
 
 import dataclasses
+import math
 import operator
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from gymnasium.envs.classic_control import utils as classic_utils
 
-from ..env import AbstractEnv, GymnasiumSpec
+from ..env import AbstractEnv
 from ..scenes import SCENES
+
+
+@dataclasses.dataclass(frozen=True)
+class GymnasiumSpec:
+    """What registers a scene as `lerax_like/<name>` in Gymnasium, standing in for Gymnasium's `<name>`.
+
+    - `name`: Gymnasium's id (`"CartPole-v1"`); `max_episode_steps`, `reward_threshold`: Gymnasium's.
+    - `renderer`: the Gymnasium env class (`"module:Class"`) whose `render` draws the scene.
+    - `attributes`: Gymnasium's attribute names on its env and the scene's path for each
+      (`("masspole", "dynamics.pole_mass")`; a name listed twice when Gymnasium's one
+      attribute is several parameters, as Acrobot's `LINK_MOI`). The renderer reads them,
+      and the Gymnasium env has them as properties that users read and write.
+    - `reset_options`: how Gymnasium's `reset(options=...)` bounds the start: `"bounds"`
+      (`low`/`high` for every drawn coordinate) or `"pendulum"` (`x_init`, `y_init`).
+    - `float32_start`: Gymnasium's env stores its start in float32 (Acrobot).
+
+    The start itself is drawn from the scene's own `initial_bounds`, with NumPy in
+    Gymnasium's order of calls, so that seeds give Gymnasium's starts.
+    """
+
+    name: str
+    max_episode_steps: int
+    reward_threshold: float | None
+    renderer: str
+    attributes: tuple[tuple[str, str], ...] = ()
+    reset_options: Literal["bounds", "pendulum"] = "bounds"
+    float32_start: bool = False
+
+
+_CLASSIC = "gymnasium.envs.classic_control"
+_CARTPOLE_ATTRIBUTES = (
+    ("gravity", "dynamics.gravity"),
+    ("masscart", "dynamics.cart_mass"),
+    ("masspole", "dynamics.pole_mass"),
+    ("length", "dynamics.half_length"),
+    ("force_mag", "force_mag"),
+    ("tau", "dt"),
+    ("theta_threshold_radians", "theta_threshold_radians"),
+    ("x_threshold", "x_threshold"),
+)
+
+
+def _road_attributes(engine: str) -> tuple[tuple[str, str], ...]:
+    """Gymnasium's attribute names on its mountain cars: the same as the scenes' own."""
+    names = ("min_position", "max_position", "max_speed", "goal_position", "goal_velocity", engine)
+    return (("gravity", "dynamics.gravity"), *((name, name) for name in names))
+
+
+GYMNASIUM_SPECS: dict[type[AbstractEnv], GymnasiumSpec] = {
+    SCENES["CartPole"]: GymnasiumSpec(
+        name="CartPole-v1",
+        max_episode_steps=500,
+        reward_threshold=475.0,
+        renderer=f"{_CLASSIC}.cartpole:CartPoleEnv",
+        attributes=_CARTPOLE_ATTRIBUTES,
+    ),
+    SCENES["Pendulum"]: GymnasiumSpec(
+        name="Pendulum-v1",
+        max_episode_steps=200,
+        reward_threshold=None,
+        renderer=f"{_CLASSIC}.pendulum:PendulumEnv",
+        attributes=(
+            ("g", "dynamics.gravity"),
+            ("m", "dynamics.mass"),
+            ("l", "dynamics.length"),
+            ("max_speed", "max_speed"),
+            ("max_torque", "max_torque"),
+            ("dt", "dt"),
+        ),
+        reset_options="pendulum",
+    ),
+    SCENES["Acrobot"]: GymnasiumSpec(
+        name="Acrobot-v1",
+        max_episode_steps=500,
+        reward_threshold=-100.0,
+        renderer=f"{_CLASSIC}.acrobot:AcrobotEnv",
+        attributes=(
+            ("dt", "dt"),
+            ("LINK_LENGTH_1", "dynamics.link_length_1"),
+            ("LINK_MASS_1", "dynamics.link_mass_1"),
+            ("LINK_MASS_2", "dynamics.link_mass_2"),
+            ("LINK_COM_POS_1", "dynamics.link_com_position_1"),
+            ("LINK_COM_POS_2", "dynamics.link_com_position_2"),
+            # Gymnasium's one moment of inertia is both links'.
+            ("LINK_MOI", "dynamics.link_moment_of_inertia_1"),
+            ("LINK_MOI", "dynamics.link_moment_of_inertia_2"),
+            ("MAX_VEL_1", "max_velocity_1"),
+            ("MAX_VEL_2", "max_velocity_2"),
+        ),
+        float32_start=True,
+    ),
+    SCENES["MountainCar"]: GymnasiumSpec(
+        name="MountainCar-v0",
+        max_episode_steps=200,
+        reward_threshold=-110.0,
+        renderer=f"{_CLASSIC}.mountain_car:MountainCarEnv",
+        attributes=_road_attributes("force"),
+    ),
+    SCENES["MountainCarContinuous"]: GymnasiumSpec(
+        name="MountainCarContinuous-v0",
+        max_episode_steps=999,
+        reward_threshold=90.0,
+        renderer=f"{_CLASSIC}.continuous_mountain_car:Continuous_MountainCarEnv",
+        attributes=_road_attributes("power"),
+    ),
+}
+"""Scene class -> what registers it with Gymnasium. A scene standing for a Gymnasium env adds a line here."""
+
+# Observations are float32: a start bound beyond float32's range gives an infinite one.
+_FLOAT32_MAX = float(np.finfo(np.float32).max)
+
+
+def _bound(options: dict[str, Any], name: str, default: float) -> float:
+    """`options[name]` (or `default`) as a float, refused by name unless finite and within float32's range."""
+    value = classic_utils.verify_number_and_cast(options.get(name, default))
+    if not (math.isfinite(value) and abs(value) <= _FLOAT32_MAX):
+        raise ValueError(
+            f"reset option {name!r} must be a finite number within float32's range "
+            f"(|{name}| <= {_FLOAT32_MAX:.4g}), got {value!r}"
+        )
+    return value
 
 
 @dataclasses.dataclass(frozen=True)
@@ -25,7 +150,7 @@ class GymSpec:
 
     @property
     def declared(self) -> GymnasiumSpec:
-        return self.scene.gymnasium
+        return GYMNASIUM_SPECS[self.scene]
 
     @property
     def name(self) -> str:
@@ -64,13 +189,15 @@ class GymSpec:
         low, high = low[drawn], high[drawn]
         if self.declared.reset_options == "pendulum":
             if options is not None:
-                x = classic_utils.verify_number_and_cast(options.get("x_init", high[0]))
-                y = classic_utils.verify_number_and_cast(options.get("y_init", high[1]))
-                high = np.array([x, y])
+                high = np.array([_bound(options, "x_init", high[0]), _bound(options, "y_init", high[1])])
             low = -high
         elif options is not None:
             # Gymnasium's `low`/`high` options bound every drawn coordinate alike.
-            new_low, new_high = classic_utils.maybe_parse_reset_bounds(options, low.min(), high.max())
+            new_low, new_high = classic_utils.maybe_parse_reset_bounds(
+                {name: _bound(options, name, 0.0) for name in ("low", "high") if name in options},
+                low.min(),
+                high.max(),
+            )
             low, high = np.full_like(low, new_low), np.full_like(high, new_high)
         # `np_random.uniform(low, high, size)` computes `low + (high - low) * random()` per
         # draw: the same numbers, without its slow broadcasting of array bounds (the
@@ -96,7 +223,5 @@ class GymSpec:
         renderer.last_u = None if action is None else float(np.asarray(scene.physical_input(action))[0])
 
 
-SPECS: dict[str, GymSpec] = {
-    spec.id: spec for spec in (GymSpec(scene) for scene in SCENES.values() if scene.gymnasium is not None)
-}
+SPECS: dict[str, GymSpec] = {spec.id: spec for spec in (GymSpec(scene) for scene in GYMNASIUM_SPECS)}
 """All ids the layer registers, by id."""

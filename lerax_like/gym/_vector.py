@@ -3,43 +3,56 @@
 from typing import Any
 
 import gymnasium
-import jax
-import jax.numpy as jnp
 import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from . import _render
-from ._compiled import HoldsScene, build_scene, check_dtype, float64
+from ._inputs import check_actions
+from ._batch import Batch, Outcome
+from ._compiled import build_scene, check_dtype, float64
 from ._spaces import to_gymnasium_space
 from ._specs import GymSpec
 
 
-class GymnasiumVectorEnv(HoldsScene, VectorEnv):
+class GymnasiumVectorEnv(VectorEnv):
     """`num_envs` copies of a scene (what `gymnasium.make_vec("lerax_like/<id>", N,
     vectorization_mode="vector_entry_point")` builds).
 
-    One call of `step` is one compiled, batched step of all envs, integrated in `dtype`.
-    It follows Gymnasium's next-step autoreset, as Gymnasium's vector CartPole does: the
-    step after an episode ends (terminated, or truncated after `max_episode_steps`)
-    restarts that env, returning its fresh observation, reward 0 and terminated and
-    truncated False. Initial states are drawn on the host from `self.np_random` with the
-    calls of Gymnasium's vector CartPole (`uniform(size=(4, num_envs))` at reset, one
-    draw of shape `(4, number of ended envs)` at a step that restarts some), and only at
-    such steps; so for CartPole the same seed and actions give Gymnasium's numbers.
+    One call of `step` is one compiled, batched step of all envs (`batch`, a `Batch`),
+    integrated in `dtype`. `autoreset_mode` is one of Gymnasium's (`metadata["autoreset_mode"]`),
+    with the semantics of Gymnasium's `SyncVectorEnv`:
+
+    - `NEXT_STEP` (the default, as Gymnasium's vector CartPole): the step after an
+      episode ends (terminated, or truncated after `max_episode_steps`) restarts that
+      env, returning its fresh observation, reward 0 and terminated and truncated False
+      (and no info for it);
+    - `SAME_STEP`: the step that ends an episode restarts the env at once and returns
+      its fresh observation; the last one is `info["final_obs"][i]` and that step's info
+      `info["final_info"]`, with the masks `_final_obs` and `_final_info`;
+    - `DISABLED`: nothing restarts by itself; `reset(options={"reset_mask": mask})`
+      (a boolean array of shape `(num_envs,)`) restarts the envs of `mask` and keeps the
+      others as they are. Stepping an env that ended without resetting it is refused.
+
+    Initial states are drawn on the host from `self.np_random` with the calls of
+    Gymnasium's vector CartPole (`uniform(size=(4, num_envs))` at reset, one draw of
+    shape `(4, number of restarted envs)` at a step that restarts some), and only at such
+    steps, with the options of the last reset; so for CartPole the same seed and actions
+    give Gymnasium's numbers.
 
     `dtype` is the precision of the step: `"float64"` (the default) computes as Gymnasium
     does, `"float32"` as JAX users run on accelerators (the parameters are cast once; the
     starts are drawn as above, then rounded). Observations are float32 either way.
 
     `state` is the state in the layout of Gymnasium's vector CartPole (`(n, num_envs)`,
-    of `dtype`), readable and writable. The info holds the per-env `solver_ok` and
-    `solver_steps`, with Gymnasium's `_name` masks. Rewards are of `dtype`.
+    of `dtype`), readable and writable. The info holds the per-env `solver_ok`,
+    `solver_steps` and `action_ok`, with Gymnasium's `_name` masks. Rewards are of `dtype`.
+    Actions are checked on the host: one that cannot be applied (out of range, not an
+    integer, not finite) is refused with a `ValueError` naming it and the space.
 
     Stepped from Python on a CPU, each step waits for JAX's dispatch thread; with
     `jax.config.update("jax_cpu_enable_async_dispatch", False)`, called before JAX's first
-    computation, it runs in the calling thread: 1.2-2.1x faster in float64 at 1024 envs on
-    a 2-core machine (`benchmarks/results/gym_vector.csv`).
+    computation, it runs in the calling thread, which is faster for steps this small.
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 50, "autoreset_mode": AutoresetMode.NEXT_STEP}
@@ -51,166 +64,168 @@ class GymnasiumVectorEnv(HoldsScene, VectorEnv):
         max_episode_steps: int | None = None,
         render_mode: str | None = None,
         dtype: str = "float64",
+        autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
         **scene_kwargs: Any,
     ):
-        self._dtype = check_dtype(dtype)
-        if not isinstance(num_envs, int) or num_envs < 1:
-            raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
+        dtype = check_dtype(dtype)
         if max_episode_steps is not None and (not isinstance(max_episode_steps, int) or max_episode_steps < 1):
             raise ValueError(f"max_episode_steps must be None or an integer >= 1, got {max_episode_steps!r}")
+        try:
+            self.autoreset_mode = AutoresetMode(autoreset_mode)
+        except ValueError as error:
+            modes = [mode.value for mode in AutoresetMode]
+            raise ValueError(f"autoreset_mode must be one of {modes}, got {autoreset_mode!r}") from error
         self._gym_spec = spec
+        # The time limit is the scene's (`AbstractEnv.truncate`).
+        scene = build_scene(spec.scene, {**scene_kwargs, "max_episode_steps": max_episode_steps})
+        self.batch = Batch(scene, num_envs, dtype)
         self.num_envs = num_envs
-        self.max_episode_steps = max_episode_steps
-        scene = build_scene(spec.scene, scene_kwargs)
-        self.scene = scene
         with float64():
             self.single_action_space = to_gymnasium_space(scene.action_space)
             self.single_observation_space = to_gymnasium_space(scene.observation_space)
         self.action_space = batch_space(self.single_action_space, num_envs)
         self.observation_space = batch_space(self.single_observation_space, num_envs)
-        self.metadata = {**self.metadata, "render_fps": _render.render_fps(spec)}
+        self.metadata = {
+            **self.metadata, "render_fps": _render.render_fps(spec), "autoreset_mode": self.autoreset_mode,
+        }
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}")
         self.render_mode = render_mode
         self._renderer = None
-        self._discrete = isinstance(self.single_action_space, gymnasium.spaces.Discrete)
         self._options: dict[str, Any] | None = None
-        self._y: jax.Array | None = None
-        self._steps: jax.Array | None = None
-        self._prev_done = np.zeros(num_envs, dtype=np.bool_)
-        self._last_action: np.ndarray | None = None
+        self._ended = np.zeros(num_envs, dtype=np.bool_)  # the envs whose episode ended at the last step
+        self.last_action: np.ndarray | None = None  # what the renderer draws (Pendulum's torque)
         self._info_mask = np.ones(num_envs, dtype=np.bool_)
-        self._reset_y: np.ndarray | None = None
-        self._observation: jax.Array | None = None  # the last one returned, on the device
-        self._warm_up()
+        # Compile the steps now, not in the first step of training.
+        if isinstance(self.single_action_space, gymnasium.spaces.Discrete):
+            zero = np.full(num_envs, self.single_action_space.start, dtype=np.int64)
+        else:
+            zero = np.zeros(self.action_space.shape, dtype=dtype)
+        self.batch.warm_up(
+            self.starts(np.random.default_rng(0), None, num_envs),
+            zero,
+            fused=self.autoreset_mode == AutoresetMode.NEXT_STEP,
+            restart=self.autoreset_mode != AutoresetMode.NEXT_STEP,
+        )
 
     @property
     def dtype(self) -> str:
         """The precision of the step: `"float64"` or `"float32"`."""
-        return self._dtype
+        return self.batch.dtype
+
+    @property
+    def max_episode_steps(self) -> int | None:
+        """The time limit: the scene's `max_episode_steps`."""
+        return self.batch.scene.max_episode_steps
+
+    @property
+    def scene(self):
+        """The functional env behind the vector env. Assign a modified scene to change parameters."""
+        return self.batch.scene
+
+    @scene.setter
+    def scene(self, scene) -> None:
+        self.batch.scene = scene
 
     @property
     def state(self) -> np.ndarray | None:
         """The states, of `dtype`, shape `(n, num_envs)` (Gymnasium's vector CartPole layout)."""
-        return None if self._y is None else np.array(self._y).T
+        state = self.batch.state
+        return None if state is None else state.T
 
     @state.setter
     def state(self, value) -> None:
-        value = np.asarray(value, dtype=self._dtype)
-        expected = (self._initial_bounds[0].size, self.num_envs)
+        value = np.asarray(value)
+        expected = (self.batch.initial_bounds[0].size, self.num_envs)
         if value.shape != expected:
             raise ValueError(f"state must have shape {expected} (state size, num_envs), got shape {value.shape}")
-        with self._split.precision():
-            self._y = jnp.asarray(value.T)
-            if self._steps is None:
-                self._steps = jnp.zeros(self.num_envs, dtype=int)
-        self._observation = None  # of the old state: the next step observes the new one
+        self.batch.state = value.T
 
-    def _warm_up(self) -> None:
-        # Compile the step and the observation now, not in the first step of training.
-        y = self._starts(np.random.default_rng(0), None, self.num_envs)
-        self._reset_y = np.zeros_like(y)
-        with self._split.precision():
-            self._no_reset = jnp.zeros(self.num_envs, dtype=bool)
-            no_limit = np.iinfo(jnp.zeros((), dtype=int).dtype).max
-            self._time_limit = jnp.asarray(no_limit if self.max_episode_steps is None else self.max_episode_steps)
-            steps = jnp.zeros(self.num_envs, dtype=int)
-            parameters, key = self._split.parameters, self._jax_key
-            actions = self._actions(self._zero_actions())
-            observation, _ = self._split.vector_observe(parameters, y, steps, key)
-            arguments = (parameters, y, steps, actions, key)
-            jax.block_until_ready(self._split.vector_advance(*arguments, self._time_limit, observation))
-            jax.block_until_ready(
-                self._split.vector_step(*arguments, self._no_reset, y, self._time_limit, observation)
-            )
-
-    def _starts(self, np_random, options, count: int) -> np.ndarray:
-        """`count` starts drawn as Gymnasium draws them, shape `(count, n)`, of `dtype`."""
-        starts = self._gym_spec.initial_state(self._initial_bounds, np_random, options, count).T
-        return starts.astype(self._dtype, copy=False)
-
-    def _zero_actions(self):
-        if self._discrete:
-            return np.full(self.num_envs, self.single_action_space.start, dtype=np.int64)
-        return np.zeros((self.num_envs, *self.single_action_space.shape), dtype=np.float32)
-
-    def _actions(self, actions) -> np.ndarray:
-        if self._discrete:
-            # `self.action_space.contains(actions)`, which Gymnasium's vector CartPole
-            # asserts, in a third of its time.
-            array = np.asarray(actions)
-            start, n = self.single_action_space.start, self.single_action_space.n
-            valid = (
-                array.shape == (self.num_envs,)
-                and array.dtype.kind in "iu"
-                and array.min() >= start
-                and array.max() < start + n
-            )
-            assert valid, f"{actions!r} ({type(actions)}) invalid"
-            return array.astype(np.int64, copy=False)
-        array = np.asarray(actions, dtype=self._dtype)
-        shape = (self.num_envs, *self.single_action_space.shape)
-        if array.size != np.prod(shape):
-            raise ValueError(f"the actions must have shape {shape}, got an array of shape {array.shape}")
-        return array.reshape(shape)
+    def starts(self, np_random: np.random.Generator, options: dict[str, Any] | None, count: int) -> np.ndarray:
+        """`count` starts drawn from `np_random` as Gymnasium draws them, shape `(count, n)`, of `dtype`."""
+        starts = self._gym_spec.initial_state(self.batch.initial_bounds, np_random, options, count).T
+        return starts.astype(self.dtype, copy=False)
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
         if seed is not None:
-            self._jax_key = self._split.key(seed)
+            self.batch.seed(seed)
+        if options is not None and "reset_mask" in options:
+            return self._reset_masked(dict(options)), {}
         self._options = options
-        y = self._starts(self.np_random, options, self.num_envs)
-        with self._split.precision():
-            self._y = jnp.asarray(y)
-            self._steps = jnp.zeros(self.num_envs, dtype=int)
-            self._observation, self._jax_key = self._split.vector_observe(
-                self._split.parameters, self._y, self._steps, self._jax_key
-            )
-            observation = np.array(self._observation)
-        self._prev_done = np.zeros(self.num_envs, dtype=np.bool_)
-        self._last_action = None
+        observation = self.batch.reset(self.starts(self.np_random, options, self.num_envs))
+        self._ended = np.zeros(self.num_envs, dtype=np.bool_)
+        self.last_action = None
         return observation, {}
 
+    def _reset_masked(self, options: dict[str, Any]) -> np.ndarray:
+        # Gymnasium's `SyncVectorEnv.reset`: the envs of the mask restart, the others stay.
+        mask = options.pop("reset_mask")
+        if not isinstance(mask, np.ndarray):
+            raise TypeError(f"`options['reset_mask']` must be a numpy array, got {type(mask)}")
+        if mask.shape != (self.num_envs,):
+            raise ValueError(f"`options['reset_mask']` must have shape `({self.num_envs},)`, got {mask.shape}")
+        if mask.dtype != np.bool_:
+            raise TypeError(f"`options['reset_mask']` must have `dtype=np.bool_`, got {mask.dtype}")
+        if not mask.any():
+            raise ValueError(f"`options['reset_mask']` must contain at least one True value, got reset_mask={mask}")
+        if self.batch.state is None:
+            raise RuntimeError("call reset without a reset_mask first: no env has started")
+        self._options = options or None
+        starts = self.starts(self.np_random, self._options, int(np.count_nonzero(mask)))
+        self._ended = self._ended & ~mask
+        return self.batch.restart(mask, starts)
+
     def step(self, actions):
-        actions = self._actions(actions)
-        assert self._y is not None, "Call reset before using step method."
-        split = self._split
-        with split.precision():
-            if self._observation is None:  # the state or the scene was assigned
-                self._observation, self._jax_key = split.vector_observe(
-                    split.parameters, self._y, self._steps, self._jax_key
-                )
-            restarts = np.count_nonzero(self._prev_done)
-            if restarts:
-                # Gymnasium's vector CartPole draws only when some env restarts, for those
-                # envs. The rows of the other envs in `_reset_y` are stale and unused.
-                reset_mask = self._prev_done
-                self._reset_y[reset_mask] = self._starts(self.np_random, self._options, restarts)
-                outputs = split.vector_step(
-                    split.parameters, self._y, self._steps, actions, self._jax_key, reset_mask, self._reset_y,
-                    self._time_limit, self._observation,
-                )
-            else:
-                # No restart: the step without the restart's selects and fresh observations.
-                outputs = split.vector_advance(
-                    split.parameters, self._y, self._steps, actions, self._jax_key, self._time_limit,
-                    self._observation,
-                )
-        self._y, self._steps, observation, outcome, self._jax_key = outputs
-        self._observation = observation
-        # np.array (a writable copy) of the observation, not jax.device_get: the latter
-        # costs far more for arrays this small. Every result below is a new array.
-        observation, outcome = np.array(observation), np.asarray(outcome)
-        terminated, truncated, solver_ok = outcome[1:4] != 0
-        self._prev_done = terminated | truncated
-        self._last_action = actions
-        info = {
-            "solver_ok": solver_ok,
-            "_solver_ok": self._info_mask.copy(),
-            "solver_steps": outcome[4].astype(np.int64),
-            "_solver_steps": self._info_mask.copy(),
+        actions = check_actions(self.single_action_space, actions, self.num_envs, self.dtype)
+        mode = self.autoreset_mode
+        restarts = self._ended if mode == AutoresetMode.NEXT_STEP and self._ended.any() else None
+        if mode == AutoresetMode.DISABLED and self._ended.any():
+            raise RuntimeError(
+                f"envs {np.flatnonzero(self._ended).tolist()} ended at the last step: with autoreset_mode "
+                "DISABLED, restart them with reset(options={'reset_mask': mask}) before stepping"
+            )
+        if restarts is not None:
+            # Gymnasium's vector CartPole draws only when some env restarts, for those envs.
+            starts = self.starts(self.np_random, self._options, int(np.count_nonzero(restarts)))
+            outcome = self.batch.advance_or_restart(actions, restarts, starts)
+        else:
+            outcome = self.batch.advance(actions)
+        self.last_action = actions
+        self._ended = outcome.terminated | outcome.truncated
+        # An env that restarted (next step) or restarts (same step) has only its reset's info, which is empty.
+        mask = self._info_mask if restarts is None else ~restarts
+        observation, info = outcome.observation, {}
+        if mode == AutoresetMode.SAME_STEP and self._ended.any():
+            ended = self._ended
+            mask = ~ended
+            final_obs = np.full(self.num_envs, None, dtype=object)
+            for index in np.flatnonzero(ended):
+                final_obs[index] = observation[index].copy()
+            info = {
+                "final_obs": final_obs, "_final_obs": ended.copy(),
+                "final_info": self._info(outcome, ended), "_final_info": ended.copy(),
+            }
+            starts = self.starts(self.np_random, self._options, int(np.count_nonzero(ended)))
+            observation = self.batch.restart(ended, starts)
+        return observation, outcome.reward, outcome.terminated, outcome.truncated, {**self._info(outcome, mask), **info}
+
+    def _info(self, outcome: Outcome, mask: np.ndarray) -> dict[str, np.ndarray]:
+        # As Gymnasium's `_add_info`: a key only when some env has it.
+        if mask is not self._info_mask and not mask.any():
+            return {}
+        mask = mask.copy()  # one copy for the three keys, which have the same envs
+        return {
+            "solver_ok": outcome.solver_ok, "_solver_ok": mask,
+            "solver_steps": outcome.solver_steps, "_solver_steps": mask,
+            "action_ok": outcome.action_ok, "_action_ok": mask,
         }
-        return observation, outcome[0].copy(), terminated, truncated, info
+
+    def __getstate__(self) -> dict[str, Any]:
+        return {name: value for name, value in self.__dict__.items() if name != "_renderer"}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state, _renderer=None)
 
     def render(self):
         if self.render_mode is None:
@@ -225,7 +240,7 @@ class GymnasiumVectorEnv(HoldsScene, VectorEnv):
             raise ValueError("the state is None: call reset before render")
         if self._renderer is None:
             self._renderer = _render.make_renderer(self._gym_spec, self.render_mode)
-        actions = [None] * self.num_envs if self._last_action is None else list(self._last_action)
+        actions = [None] * self.num_envs if self.last_action is None else list(self.last_action)
         return [
             _render.draw(self._renderer, self._gym_spec, self.scene, state, action)
             for state, action in zip(states.T, actions, strict=True)

@@ -61,10 +61,7 @@ def _attribute(name: str, paths: tuple[str, ...]) -> property:
             scene = self.scene
             for each in paths:
                 scene = _replace(scene, each, value, name)
-            # A new scene restarts a stochastic scene's key; a parameter write should not.
-            key = self._jax_key
             self.scene = scene
-            self._jax_key = key
 
     where = " and ".join(f"`scene.{each}`" for each in paths)
     return property(get, set, doc=f"Gymnasium's `{name}`: {where}, readable and writable.")

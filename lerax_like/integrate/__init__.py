@@ -19,6 +19,7 @@ from ._presets import (
     SolverTable as SolverTable,
     describe_solver as describe_solver,
     register_solver as register_solver,
+    solver_instance as solver_instance,
     unregister_solver as unregister_solver,
 )
 from ._rk4 import RK4 as RK4

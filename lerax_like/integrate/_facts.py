@@ -92,10 +92,11 @@ def _steps_give_an_error_estimate(solver: diffrax.AbstractSolver) -> bool:
         solver = eqx.tree_at(lambda s: s.root_finder, solver, fixed_step_root_finder())
     term = ProjectedODETerm(lambda t, y, args: jnp.stack([y[1], -y[0]]), velocity_indices=(1,))
     y0 = jnp.ones(2)
+    t0, t1 = jnp.asarray(0.0), jnp.asarray(0.1)
 
     def probe():
-        state = solver.init(term, 0.0, 0.1, y0, None)
-        return solver.step(term, 0.0, 0.1, y0, None, state, made_jump=False)[1]
+        state = solver.init(term, t0, t1, y0, None)
+        return solver.step(term, t0, t1, y0, None, state, made_jump=False)[1]
 
     return jax.eval_shape(probe) is not None
 

@@ -254,6 +254,27 @@ def unregister_solver(name: str) -> None:
     SOLVERS.remove(name)
 
 
+def solver_instance(solver: "diffrax.AbstractSolver | type[diffrax.AbstractSolver]") -> diffrax.AbstractSolver:
+    """`solver` itself, or the solver a solver class builds with no arguments.
+
+    Raises `TypeError` for anything else, and for a class that needs arguments.
+    """
+    if isinstance(solver, type) and issubclass(solver, diffrax.AbstractSolver):
+        try:
+            return solver()
+        except TypeError as error:
+            raise TypeError(
+                f"the solver class {solver.__name__} cannot be built with no arguments ({error}); "
+                "pass a solver instance instead"
+            ) from None
+    if not isinstance(solver, diffrax.AbstractSolver):
+        raise TypeError(
+            f"{solver!r} is no diffrax solver (an instance, or a class built with no arguments) and no preset "
+            f"name ({', '.join(SOLVER_PRESETS)})"
+        )
+    return solver
+
+
 def describe_solver(solver: "str | diffrax.AbstractSolver | type[diffrax.AbstractSolver]") -> SolverPreset:
     """The `SolverPreset` of a preset name, or a record of the same facts about a solver.
 
@@ -265,16 +286,7 @@ def describe_solver(solver: "str | diffrax.AbstractSolver | type[diffrax.Abstrac
     """
     if isinstance(solver, str):
         return SOLVERS.find(solver)
-    if isinstance(solver, type) and issubclass(solver, diffrax.AbstractSolver):
-        try:
-            solver = solver()
-        except TypeError as error:
-            raise TypeError(
-                f"the solver class {solver.__name__} cannot be built with no arguments ({error}); "
-                "pass a solver instance instead"
-            ) from None
-    if not isinstance(solver, diffrax.AbstractSolver):
-        raise TypeError(f"solver must be a diffrax solver or one of {SOLVER_PRESETS}, got {solver!r}")
+    solver = solver_instance(solver)
     registered = SOLVERS.matching(solver)
     if registered is not None:
         return registered

@@ -5,14 +5,12 @@ from collections.abc import Sequence
 from typing import Any
 
 import gymnasium
-import jax
-import jax.numpy as jnp
 import numpy as np
 from gymnasium.utils import seeding
 from stable_baselines3.common.vec_env import VecEnv, VecMonitor
 
-from ..gym._specs import SPECS
-from ..gym._vector import GymnasiumVectorEnv
+from ..gym import SPECS, GymnasiumVectorEnv
+from ..gym._inputs import check_actions
 
 
 class CompiledVecEnv(VecEnv):
@@ -26,15 +24,16 @@ class CompiledVecEnv(VecEnv):
       observation is the next episode's first, and the info holds the last one under
       `"terminal_observation"`;
     - `info["TimeLimit.truncated"]` is `truncated and not terminated`; the info also
-      holds the step's `solver_ok` and `solver_steps`, as the single env's;
+      holds the step's `solver_ok`, `solver_steps` and `action_ok`, as the single env's;
     - each env has its own NumPy generator, seeded at a reset with SB3's seeds (`seed(s)`
       gives env `i` the seed `s + i` at the next reset), from which its starts are drawn
       with the calls of Gymnasium's env: the same seeds give `DummyVecEnv`'s starts;
     - rewards are float32 and observations float32, as `DummyVecEnv` returns them.
 
-    One step is one compiled call of all envs (`advance`, vmapped) and, only when some
-    episode ended, a second one that restarts those envs; their starts are drawn on the
-    host for them alone. Attributes (`get_attr`, `set_attr`, `env_method`) are those of
+    One step is `Batch.advance` (one compiled call of all envs) and, only when some
+    episode ended, `Batch.restart` of those envs ("advance, then restart"); their starts
+    are drawn on the host for them alone. Actions that cannot be applied are refused
+    with a `ValueError` naming them. Attributes (`get_attr`, `set_attr`, `env_method`) are those of
     the `GymnasiumVectorEnv` behind it (`scene`, `state`, `render_mode`), shared by all
     envs: `set_attr` applies to all of them or refuses.
     """
@@ -54,99 +53,62 @@ class CompiledVecEnv(VecEnv):
         spec = SPECS[env_id]
         if max_episode_steps is None:
             max_episode_steps = spec.max_episode_steps
-        # The vector env holds the compiled step, the state and the spaces; its own time
-        # limit and autoreset are not used: this env truncates and restarts in its step.
+        # The vector env holds the batch, the spaces, the renderer and the attributes; its
+        # own autoreset is not used: this env restarts in its step, through the batch.
         self._vector = GymnasiumVectorEnv(
             spec, num_envs=num_envs, max_episode_steps=max_episode_steps, render_mode=render_mode, dtype=dtype,
-            **scene_kwargs,
+            autoreset_mode=gymnasium.vector.AutoresetMode.SAME_STEP, **scene_kwargs,
         )
+        self._batch = self._vector.batch
         self.spec = gymnasium.spec(env_id)
         self.max_episode_steps = max_episode_steps
         self._generators: list[np.random.Generator | None] = [None] * num_envs
         self._actions: np.ndarray | None = None
         super().__init__(num_envs, self._vector.single_observation_space, self._vector.single_action_space)
-        self._warm_up()
-
-    def _warm_up(self) -> None:
-        # Compile the restart now, not at the first end of an episode in training.
-        vector, split = self._vector, self._vector._split
-        with split.precision():
-            y, steps = jnp.asarray(vector._reset_y), jnp.zeros(self.num_envs, dtype=int)
-            observation, _ = split.vector_observe(split.parameters, y, steps, vector._jax_key)
-            no_reset = np.zeros(self.num_envs, dtype=np.bool_)
-            arguments = (split.parameters, y, steps, vector._jax_key, no_reset, vector._reset_y, observation)
-            jax.block_until_ready(split.vector_restart(*arguments))
 
     # -- SB3's VecEnv ------------------------------------------------------------------
 
     def reset(self):
-        vector, split = self._vector, self._vector._split
         for index, seed in enumerate(self._seeds):
             if seed is not None or self._generators[index] is None:
                 self._generators[index], _ = seeding.np_random(seed)
         if self._seeds[0] is not None:
-            vector._jax_key = split.key(self._seeds[0])
-        starts = self._starts(range(self.num_envs))
-        with split.precision():
-            vector._y = jnp.asarray(starts)
-            vector._steps = jnp.zeros(self.num_envs, dtype=int)
-            vector._observation, vector._jax_key = split.vector_observe(
-                split.parameters, vector._y, vector._steps, vector._jax_key
-            )
+            self._batch.seed(self._seeds[0])
+        observation = self._batch.reset(self._starts(range(self.num_envs)))
         self.reset_infos = [{} for _ in range(self.num_envs)]
         self._reset_seeds()
         self._reset_options()
-        return np.array(vector._observation)
+        return observation
 
     def step_async(self, actions: np.ndarray) -> None:
         self._actions = actions
 
     def step_wait(self):
-        vector, split = self._vector, self._vector._split
-        if vector._y is None:
-            raise RuntimeError("call reset before step")
-        actions = vector._actions(self._actions)
-        with split.precision():
-            if vector._observation is None:  # the state or the scene was assigned
-                vector._observation, vector._jax_key = split.vector_observe(
-                    split.parameters, vector._y, vector._steps, vector._jax_key
-                )
-            vector._y, vector._steps, vector._observation, outcome, vector._jax_key = split.vector_advance(
-                split.parameters, vector._y, vector._steps, actions, vector._jax_key, vector._time_limit,
-                vector._observation,
-            )
-        observation, outcome = np.array(vector._observation), np.asarray(outcome)
-        reward = outcome[0].astype(np.float32)
-        terminated, truncated, solver_ok = outcome[1] != 0, outcome[2] != 0, outcome[3] != 0
-        done = terminated | truncated
-        time_limit = (truncated & ~terminated).tolist()
+        actions = check_actions(self.action_space, self._actions, self.num_envs, self._batch.dtype)
+        outcome = self._batch.advance(actions)
+        observation = outcome.observation
+        reward = outcome.reward.astype(np.float32)
+        done = outcome.terminated | outcome.truncated
+        time_limit = (outcome.truncated & ~outcome.terminated).tolist()
         infos = [
-            {"solver_ok": ok, "solver_steps": steps, "TimeLimit.truncated": limit}
-            for ok, steps, limit in zip(solver_ok.tolist(), outcome[4].astype(np.int64).tolist(), time_limit)
+            {"solver_ok": ok, "solver_steps": steps, "action_ok": action_ok, "TimeLimit.truncated": limit}
+            for ok, steps, action_ok, limit in zip(
+                outcome.solver_ok.tolist(), outcome.solver_steps.tolist(), outcome.action_ok.tolist(), time_limit
+            )
         ]
         ended = np.flatnonzero(done)
         if ended.size:
             for index in ended:
                 infos[index]["terminal_observation"] = observation[index].copy()
-            reset_y = np.zeros(vector._y.shape, dtype=vector.dtype)
-            reset_y[ended] = self._starts(ended)
-            with split.precision():
-                vector._y, vector._steps, vector._observation, vector._jax_key = split.vector_restart(
-                    split.parameters, vector._y, vector._steps, vector._jax_key, done, reset_y, vector._observation
-                )
-            observation[ended] = np.asarray(vector._observation)[ended]
-        vector._prev_done = np.zeros(self.num_envs, dtype=np.bool_)
-        vector._last_action = actions
+            fresh = self._batch.restart(done, self._starts(ended))
+            observation[ended] = fresh[ended]
+        self._vector.last_action = actions
         return observation, reward, done, infos
 
     def _starts(self, indices) -> np.ndarray:
         """Starts of the envs `indices`, each drawn from its own generator as Gymnasium's env draws it."""
-        spec, bounds = self._vector._gym_spec, self._vector._initial_bounds
-        starts = [
-            spec.initial_state(bounds, self._generators[index], self._options[index] or None, 1)[:, 0]
-            for index in indices
-        ]
-        return np.stack(starts).astype(self._vector.dtype, copy=False)
+        starts = [self._vector.starts(self._generators[index], self._options[index] or None, 1) for index in indices]
+        return np.concatenate(starts)
 
     def close(self) -> None:
         self._vector.close()

@@ -5,7 +5,7 @@ import jax.numpy as jnp
 
 from .._fields import POSITIVE, POSITIVE_OR_INF, parameter
 from .._types import Array, BoolScalar, Input, Key, Scalar, State
-from ..env import AbstractEnv, EnvState, GymnasiumSpec, dynamics, episode_limit, integrator, time_step
+from ..env import AbstractEnv, EnvState, dynamics, episode_limit, integrator, time_step
 from ..integrate import Integrator
 from ..physics import AcrobotDynamics
 from ..spaces import Box, Discrete
@@ -62,26 +62,6 @@ class Acrobot(AbstractEnv):
     """
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
-    gymnasium: ClassVar[GymnasiumSpec] = GymnasiumSpec(
-        name="Acrobot-v1",
-        max_episode_steps=500,
-        reward_threshold=-100.0,
-        renderer="gymnasium.envs.classic_control.acrobot:AcrobotEnv",
-        attributes=(
-            ("dt", "dt"),
-            ("LINK_LENGTH_1", "dynamics.link_length_1"),
-            ("LINK_MASS_1", "dynamics.link_mass_1"),
-            ("LINK_MASS_2", "dynamics.link_mass_2"),
-            ("LINK_COM_POS_1", "dynamics.link_com_position_1"),
-            ("LINK_COM_POS_2", "dynamics.link_com_position_2"),
-            # Gymnasium's one moment of inertia is both links'.
-            ("LINK_MOI", "dynamics.link_moment_of_inertia_1"),
-            ("LINK_MOI", "dynamics.link_moment_of_inertia_2"),
-            ("MAX_VEL_1", "max_velocity_1"),
-            ("MAX_VEL_2", "max_velocity_2"),
-        ),
-        float32_start=True,
-    )
 
     dynamics: AcrobotDynamics = dynamics(AcrobotDynamics)
     integrator: Integrator = integrator("rk4")

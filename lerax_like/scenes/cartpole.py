@@ -5,7 +5,7 @@ import jax.numpy as jnp
 
 from .._fields import NONNEGATIVE, POSITIVE, POSITIVE_OR_INF, option, parameter
 from .._types import Array, BoolScalar, Input, Key, Scalar
-from ..env import AbstractEnv, EnvState, GymnasiumSpec, dynamics, episode_limit, integrator, time_step
+from ..env import AbstractEnv, EnvState, dynamics, episode_limit, integrator, time_step
 from ..integrate import Integrator
 from ..physics import CartPoleDynamics
 from ..physics.contact import Walls
@@ -55,18 +55,6 @@ class AbstractCartPole(AbstractEnv):
             | (theta < -self.theta_threshold_radians)
             | (theta > self.theta_threshold_radians)
         )
-
-
-_CARTPOLE_ATTRIBUTES = (
-    ("gravity", "dynamics.gravity"),
-    ("masscart", "dynamics.cart_mass"),
-    ("masspole", "dynamics.pole_mass"),
-    ("length", "dynamics.half_length"),
-    ("force_mag", "force_mag"),
-    ("tau", "dt"),
-    ("theta_threshold_radians", "theta_threshold_radians"),
-    ("x_threshold", "x_threshold"),
-)
 
 
 @final
@@ -120,13 +108,6 @@ class CartPole(AbstractCartPole):
     Stiff settings need an adaptive solver (`"tsit5"`) or an implicit one (`"kvaerno5"`).
     """
 
-    gymnasium: ClassVar[GymnasiumSpec] = GymnasiumSpec(
-        name="CartPole-v1",
-        max_episode_steps=500,
-        reward_threshold=475.0,
-        renderer="gymnasium.envs.classic_control.cartpole:CartPoleEnv",
-        attributes=_CARTPOLE_ATTRIBUTES,
-    )
 
     sutton_barto_reward: bool = option(False, (False, True))
 

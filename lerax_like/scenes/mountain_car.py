@@ -6,17 +6,11 @@ import numpy as np
 
 from .._fields import FINITE, POSITIVE, POSITIVE_OR_INF, concrete, parameter
 from .._types import Array, BoolScalar, Input, Key, Scalar, State
-from ..env import AbstractEnv, EnvState, GymnasiumSpec, dynamics, episode_limit, integrator, time_step
+from ..env import AbstractEnv, EnvState, dynamics, episode_limit, integrator, time_step
 from ..integrate import Integrator
 from ..physics import MountainCarDynamics
 from ..spaces import Box, Discrete
 from ._unit_action import AbstractUnitActionEnv
-
-
-def _road_attributes(engine: str) -> tuple[tuple[str, str], ...]:
-    """Gymnasium's attribute names on its mountain cars: the same as the scenes' own."""
-    names = ("min_position", "max_position", "max_speed", "goal_position", "goal_velocity", engine)
-    return (("gravity", "dynamics.gravity"), *((name, name) for name in names))
 
 
 class AbstractMountainCar(AbstractEnv):
@@ -107,13 +101,6 @@ class MountainCar(AbstractMountainCar):
     `stepsize_controller`, `max_episode_steps` (200).
     """
 
-    gymnasium: ClassVar[GymnasiumSpec] = GymnasiumSpec(
-        name="MountainCar-v0",
-        max_episode_steps=200,
-        reward_threshold=-110.0,
-        renderer="gymnasium.envs.classic_control.mountain_car:MountainCarEnv",
-        attributes=_road_attributes("force"),
-    )
 
     force: Scalar = parameter(0.001, POSITIVE)
     goal_position: Scalar = parameter(0.5, FINITE)
@@ -166,13 +153,6 @@ class MountainCarContinuous(AbstractMountainCar, AbstractUnitActionEnv):
     `stepsize_controller`, `max_episode_steps` (999).
     """
 
-    gymnasium: ClassVar[GymnasiumSpec] = GymnasiumSpec(
-        name="MountainCarContinuous-v0",
-        max_episode_steps=999,
-        reward_threshold=90.0,
-        renderer="gymnasium.envs.classic_control.continuous_mountain_car:Continuous_MountainCarEnv",
-        attributes=_road_attributes("power"),
-    )
     action_size: ClassVar[int] = 1
 
     power: Scalar = parameter(0.0015, POSITIVE)

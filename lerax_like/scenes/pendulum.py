@@ -4,7 +4,7 @@ import jax.numpy as jnp
 
 from .._fields import POSITIVE, POSITIVE_OR_INF, parameter
 from .._types import Array, Input, Key, Scalar, State
-from ..env import AbstractEnv, EnvState, GymnasiumSpec, dynamics, episode_limit, integrator, time_step
+from ..env import AbstractEnv, EnvState, dynamics, episode_limit, integrator, time_step
 from ..integrate import Integrator
 from ..physics import PendulumDynamics
 from ..spaces import Box
@@ -50,21 +50,6 @@ class Pendulum(AbstractEnv):
     """
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
-    gymnasium: ClassVar[GymnasiumSpec] = GymnasiumSpec(
-        name="Pendulum-v1",
-        max_episode_steps=200,
-        reward_threshold=None,
-        renderer="gymnasium.envs.classic_control.pendulum:PendulumEnv",
-        attributes=(
-            ("g", "dynamics.gravity"),
-            ("m", "dynamics.mass"),
-            ("l", "dynamics.length"),
-            ("max_speed", "max_speed"),
-            ("max_torque", "max_torque"),
-            ("dt", "dt"),
-        ),
-        reset_options="pendulum",
-    )
     aliases: ClassVar[tuple[tuple[str, str], ...]] = (("g", "gravity"),)
 
     dynamics: PendulumDynamics = dynamics(PendulumDynamics)

@@ -3,6 +3,7 @@
 import math
 
 import diffrax
+import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -33,6 +34,10 @@ def _closed_form(t, x0, v0, mass, stiffness, damping, force):
     return x + force / stiffness, v
 
 
+# One compilation for the three cases: the parameters are leaves, not static.
+_rollout = eqx.filter_jit(ll.rollout)
+
+
 @pytest.mark.parametrize(
     "damping, action", [(0.0, 0.0), (0.4, 0.7), (5.0, -0.7)], ids=["undamped", "underdamped", "overdamped"]
 )
@@ -42,7 +47,7 @@ def test_a_constant_force_follows_the_closed_form(damping, action):
     env = SpringMass(mass=mass, stiffness=stiffness, damping=damping, force_mag=force_mag, integrator=integrator)
     x0, v0, steps = 0.8, -0.3, 60
     state = ll.EnvState(y=jnp.array([x0, v0]), steps=jnp.asarray(0))
-    ys, info = ll.rollout(env, state, jnp.full((steps, 1), action))
+    ys, info = _rollout(env, state, jnp.full((steps, 1), action))
     assert np.all(np.asarray(info["solver_ok"]))
     times = float(env.dt) * np.arange(1, steps + 1)
     x, v = _closed_form(times, x0, v0, mass, stiffness, damping, force_mag * action)

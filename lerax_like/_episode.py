@@ -1,0 +1,30 @@
+"""The episode limit as a field of a scene: data, not a static option."""
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ._types import IntScalar
+
+
+def episode_limit(default: int | None):
+    """`max_episode_steps`: the time limit of an episode in env steps (None: none).
+
+    An integer array leaf, so that one compiled trainer runs any limit and `jax.vmap`
+    batches limits, as gymnax's params do. Checked when concrete (a traced limit, under
+    `vmap`, is let through).
+    """
+    return eqx.field(default=default, converter=_episode_limit)
+
+
+def _episode_limit(value) -> IntScalar | None:
+    if value is None or isinstance(value, jax.core.Tracer):
+        return value
+    array = np.asarray(value)
+    if array.shape != () or not np.issubdtype(array.dtype, np.integer) or array < 1:
+        raise ValueError(f"max_episode_steps must be None or an integer >= 1, got {value!r}")
+    return jnp.asarray(array, dtype=int)
+
+
+__all__ = ["episode_limit"]

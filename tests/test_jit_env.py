@@ -1,0 +1,80 @@
+"""An env is a valid argument of plain `jax.jit`, for every scene, every preset and a user's controller.
+
+`eqx.filter_jit` holds every non-array leaf static; plain `jax.jit` (what a JAX RL
+trainer calls) traces every leaf, so an env must have no leaf but arrays. The step it
+compiles must be the one `eqx.filter_jit` compiles.
+"""
+
+import diffrax
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import jax.random as jr
+import optimistix
+import pytest
+
+import lerax_like as ll
+from conftest import tree_allclose
+
+
+def _non_array_leaves(tree):
+    return [jax.tree_util.keystr(path) for path, leaf in jax.tree_util.tree_leaves_with_path(tree)
+            if not eqx.is_array(leaf)]
+
+
+def _user_controller():
+    # A controller of the user's own, with a function of its own (the norm) and a tolerance
+    # given as an array (a traced leaf: one compilation serves every value).
+    return diffrax.PIDController(rtol=jnp.asarray(1e-7), atol=1e-10, norm=optimistix.max_norm, pcoeff=0.2, icoeff=0.4)
+
+
+@pytest.mark.parametrize("solver", ll.SOLVER_PRESETS)
+@pytest.mark.parametrize("name", sorted(ll.SCENES))
+def test_every_leaf_of_an_env_is_an_array(name, solver):
+    env = ll.SCENES[name](solver=solver)
+    assert _non_array_leaves(env) == []
+    # The physical parameters are still leaves, so still differentiable.
+    assert jax.tree.leaves(env.dynamics), name
+
+
+def test_a_users_controller_leaves_only_arrays_and_keeps_its_settings():
+    controller = _user_controller()
+    assert _non_array_leaves(controller)  # as given, it holds a function and Python numbers
+    env = ll.CartPoleContinuous(solver="tsit5", stepsize_controller=controller)
+    assert _non_array_leaves(env) == []
+    held = env.integrator.stepsize_controller
+    assert held.norm is optimistix.max_norm and (held.atol, held.pcoeff, held.icoeff) == (1e-10, 0.2, 0.4)
+    assert held.rtol is controller.rtol  # the array is the env's leaf, not a copy
+    # A traced tolerance: a different rtol reuses the compiled step.
+    assert any(leaf is controller.rtol for leaf in jax.tree.leaves(env))
+
+
+def _compare_jit_with_filter_jit(env, key):
+    state, _, _ = env.reset(key=jr.fold_in(key, 0))
+    action = env.action_space.sample(key=jr.fold_in(key, 1))
+    step_key = jr.fold_in(key, 2)
+    plain = jax.jit(lambda env, state, action: env.step(state, action, key=step_key))(env, state, action)
+    filtered = eqx.filter_jit(lambda env, state, action: env.step(state, action, key=step_key))(env, state, action)
+    assert tree_allclose(plain, filtered, rtol=1e-12, atol=1e-12)
+    assert bool(plain[-1]["solver_ok"])
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("solver", ll.SOLVER_PRESETS)
+@pytest.mark.parametrize("name", sorted(ll.SCENES))
+def test_plain_jit_of_a_step_runs_and_matches_filter_jit(name, solver):
+    _compare_jit_with_filter_jit(ll.SCENES[name](solver=solver), jr.key(7))
+
+
+def test_plain_jit_with_a_users_controller_and_a_gradient_through_it():
+    env = ll.CartPoleContinuous(solver="tsit5", stepsize_controller=_user_controller())
+    _compare_jit_with_filter_jit(env, jr.key(3))
+    state, _, _ = env.reset(key=jr.key(4))
+    action = jnp.array([0.5])
+
+    def position(env):
+        return env.step(state, action, key=jr.key(5))[0].y[0]
+
+    # Parameters stay differentiable leaves under plain jit: jax.grad over the env.
+    gradient = jax.jit(jax.grad(position, allow_int=True))(env)
+    assert jnp.isfinite(gradient.dynamics.cart_mass) and gradient.dynamics.cart_mass != 0

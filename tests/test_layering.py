@@ -1,0 +1,127 @@
+"""The core knows nothing of the front ends: read off the package's source, not its behaviour.
+
+Dependencies run one way: physics, integrate, env, scenes, spaces and analysis import
+nothing from the Gymnasium layer (`lerax_like.gym`), the SB3 layer (`lerax_like.sb3`),
+Gymnasium or SB3; and `env.py`, the step semantics every front end shares, names nothing
+of Gymnasium (its spec, its attribute names, its keywords).
+"""
+
+import ast
+import pathlib
+
+import pytest
+
+import lerax_like
+
+
+PACKAGE = pathlib.Path(lerax_like.__file__).parent
+CORE = ("physics", "integrate", "env", "scenes", "spaces", "analysis")
+FRONT_ENDS = ("lerax_like.gym", "lerax_like.sb3", "gymnasium", "stable_baselines3")
+
+
+def _modules(name: str) -> list[pathlib.Path]:
+    """The files of `lerax_like.<name>`, a module or a package."""
+    package = PACKAGE / name
+    if package.is_dir():
+        return sorted(package.rglob("*.py"))
+    return [PACKAGE / f"{name}.py"]
+
+
+def _module_name(path: pathlib.Path, package: pathlib.Path) -> str:
+    parts = path.relative_to(package.parent).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def imported(path: pathlib.Path, root: pathlib.Path = PACKAGE) -> set[str]:
+    """Every module `path` (a file of the package at `root`) imports, anywhere in it (lazy
+    imports inside functions too), by absolute name."""
+    module = _module_name(path, root)
+    package = module if path.name == "__init__.py" else module.rpartition(".")[0]
+    names = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            names.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")
+                base = base[: len(base) - (node.level - 1)]
+                prefix = ".".join(base + ([node.module] if node.module else []))
+            else:
+                prefix = node.module
+            names.add(prefix)
+            # `from . import gym` imports the module `lerax_like.gym`.
+            names.update(f"{prefix}.{alias.name}" for alias in node.names)
+    return names
+
+
+def _is_front_end(name: str) -> bool:
+    return any(name == front or name.startswith(front + ".") for front in FRONT_ENDS)
+
+
+@pytest.mark.parametrize("name", CORE)
+def test_the_core_imports_no_front_end(name):
+    files = _modules(name)
+    assert files and all(path.exists() for path in files), name
+    offending = {str(path.relative_to(PACKAGE)): sorted(filter(_is_front_end, imported(path))) for path in files}
+    assert not {path: names for path, names in offending.items() if names}
+
+
+def test_the_import_reader_sees_front_end_imports(tmp_path):
+    # The reader itself, on a module that does import the front ends in each way.
+    scenes = tmp_path / "lerax_like" / "scenes"
+    scenes.mkdir(parents=True)
+    probe = scenes / "probe.py"
+    probe.write_text(
+        "from ..gym import SPECS\nfrom .. import sb3\nimport gymnasium.spaces\n"
+        "def later():\n    from ..gym._specs import GymSpec\n"
+    )
+    names = imported(probe, tmp_path / "lerax_like")
+    assert {"lerax_like.gym", "lerax_like.sb3", "gymnasium.spaces", "lerax_like.gym._specs"} <= names
+    assert all(_is_front_end(name) for name in ("lerax_like.gym", "lerax_like.sb3", "gymnasium.spaces"))
+    assert not _is_front_end("lerax_like.gymnax") and not _is_front_end("lerax_like.gradients")
+
+
+def _names_and_strings(tree: ast.Module) -> list[str]:
+    """Every identifier of `tree` and every string constant that is not a docstring."""
+    docstrings = set()
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)):
+            body = node.body
+            if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant):
+                docstrings.add(id(body[0].value))
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Name):
+            found.append(node.id)
+        elif isinstance(node, ast.Attribute):
+            found.append(node.attr)
+        elif isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+            found.append(node.name)
+        elif isinstance(node, ast.arg):
+            found.append(node.arg)
+        elif isinstance(node, ast.keyword) and node.arg:
+            found.append(node.arg)
+        elif isinstance(node, ast.alias):
+            found.append(node.asname or node.name)
+        elif isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in docstrings:
+            found.append(node.value)
+    return found
+
+
+# Gymnasium's own names that the layer maps (its attribute names on its envs), and the
+# keywords only the layer used.
+GYMNASIUM_NAMES = ("gym", "masspole", "masscart", "render", "float32_start", "observation_dtype", "observation_before")
+
+
+def test_env_names_nothing_of_gymnasium():
+    names = _names_and_strings(ast.parse((PACKAGE / "env.py").read_text()))
+    assert "AbstractEnv" in names and "advance" in names  # the reader reads the module
+    offending = sorted({name for name in names for word in GYMNASIUM_NAMES if word in name.lower()})
+    assert not offending
+
+
+def test_the_layer_holds_the_gymnasium_declarations():
+    # Public names stay: `lerax_like.GymnasiumSpec` is the layer's, and no scene class holds one.
+    assert lerax_like.GymnasiumSpec is lerax_like.gym.GymnasiumSpec
+    assert not any(hasattr(scene, "gymnasium") for scene in lerax_like.SCENES.values())
+    assert set(lerax_like.gym.GYMNASIUM_SPECS) <= set(lerax_like.SCENES.values())
