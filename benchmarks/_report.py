@@ -524,6 +524,42 @@ def gym_before_after(folder, link):
     return lines
 
 
+def contact_study(folder, link):
+    data = _read_json(folder, "contact_study.json")
+    if data is None:
+        return []
+    rows = []
+    for name, entry in data.items():
+        for order in entry["orders"]:
+            rows.append([name, ", ".join(f"{k}={v:g}" for k, v in entry["scene_kwargs"].items()), order["solver"],
+                         order["method_order"], _g(order["order"]), order["points"]])
+    lines = ["Fitted orders of the final-time error (fixed steps) on CartPoleContinuous through contact:", ""]
+    lines += _table(["contact", "keywords", "solver", "method order", "fitted order", "points"], rows)
+    for name in data:
+        if (folder / f"contact_study_{name}.png").exists():
+            lines += [f"![{name}]({link}/contact_study_{name}.png)", ""]
+    return lines
+
+
+def rimless_wheel(folder, link):
+    data = _read_json(folder, "rimless_wheel.json")
+    if data is None:
+        return []
+    parameters = ", ".join(f"{name} {value:.6g}" for name, value in data["parameters"].items())
+    rows = [
+        ["closed form", f"{data['closed_form_post_impact_speed']:.12f}", ""],
+        [f"env, {len(data['starts'])} starts ({data['solver']})", f"{data['env_post_impact_speed']:.12f}",
+         f"{data['env_max_abs_error']:.2e}"],
+        ["SciPy solve_ivp with events (DOP853, 1e-13)", f"{data['scipy_post_impact_speed']:.12f}", f"{data['scipy_abs_error']:.2e}"],
+    ]
+    lines = [f"Passive rimless wheel ({parameters}), post-impact theta_dot of the limit cycle after "
+             f"{data['env_steps']} env steps:", ""]
+    lines += _table(["source", "theta_dot+ (rad/s)", "max abs error against the closed form"], rows)
+    if (folder / "rimless_wheel.png").exists():
+        lines += [f"![phase portrait]({link}/rimless_wheel.png)", ""]
+    return lines
+
+
 def contact(folder, link):
     rows = _read_csv(folder, "contact.csv")
     if rows is None:
@@ -569,6 +605,8 @@ SECTIONS = {
     "adaptive_vmap": adaptive_vmap,
     "latency": latency,
     "gym_vector": gym_vector,
+    "contact_study": contact_study,
+    "rimless_wheel": rimless_wheel,
     "stability": stability,
     "domain_randomisation": domain_randomisation,
     "ppo_baseline": ppo_baseline,

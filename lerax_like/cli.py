@@ -83,6 +83,13 @@ def _study(arguments) -> int:
     solvers = _solvers_from(arguments, "study")
     if solvers is not None:
         overrides["sweeps"] = sweeps_for(solvers, quick=arguments.quick, stiff=SCENES[arguments.scene].stiff)
+    if arguments.scene_keyword:
+        try:
+            overrides["scene_kwargs"] = {key: float(value) for key, value in
+                                         (pair.split("=", 1) for pair in arguments.scene_keyword)}
+        except ValueError:
+            print(f"lerax-like study: --scene-keyword takes KEY=NUMBER, got {arguments.scene_keyword}", file=sys.stderr)
+            return 2
     config = StudyConfig.default(arguments.scene, quick=arguments.quick, **overrides)
     plot = not arguments.no_plot and matplotlib_available()
     start = time.perf_counter()
@@ -167,14 +174,12 @@ def _gradient_variance(arguments) -> int:
         overrides["solvers"] = tuple(arguments.solver)
     if arguments.dtype is not None:
         overrides["dtype"] = arguments.dtype
-    stiffnesses = arguments.end_stop_stiffness or [None]
+    cases = [{"end_stop_stiffness": k} for k in arguments.end_stop_stiffness or []]
+    cases += [{"restitution": e} for e in arguments.restitution or []]
     try:
         configs = [
-            GradientVarianceConfig.default(
-                arguments.scene, quick=arguments.quick,
-                scene_kwargs={} if k is None else {"end_stop_stiffness": k}, **overrides,
-            )
-            for k in stiffnesses
+            GradientVarianceConfig.default(arguments.scene, quick=arguments.quick, scene_kwargs=kwargs, **overrides)
+            for kwargs in cases or [{}]
         ]
         results = []
         start = time.perf_counter()
@@ -274,6 +279,9 @@ def main(argv: list[str] | None = None) -> int:
     study.add_argument("--no-progress", action="store_true", help="no progress bar")
     study.add_argument("--no-plot", action="store_true", help="skip the PNG (no matplotlib needed)")
     study.add_argument("--solver", action="append", metavar="NAME", help=SOLVER_HELP)
+    study.add_argument("--scene-keyword", action="append", metavar="KEY=NUMBER",
+                       help="a numeric keyword of the scene, repeatable: --scene-keyword restitution=0.8 "
+                            "--scene-keyword track_limit=0.1 studies CartPoleContinuous with located walls")
     study.set_defaults(run=_study)
 
     gradients = commands.add_parser(
@@ -302,6 +310,9 @@ def main(argv: list[str] | None = None) -> int:
                           help="solver presets (default: rk4; tsit5 with end stops)")
     variance.add_argument("--end-stop-stiffness", nargs="+", type=float, metavar="K",
                           help="cart-poles: end stops of these stiffnesses (N/m) at 0.5 m, one study each")
+    variance.add_argument("--restitution", nargs="+", type=float, metavar="E",
+                          help="cart-poles: walls at 0.5 m located as events, of these restitutions, one study each "
+                               "(beside any --end-stop-stiffness)")
     variance.add_argument("--dtype", choices=("float64", "float32"), default=None,
                           help="dtype of the estimators (default float64; float32 vs float64 is measured anyway)")
     variance.add_argument("--out", default="lerax_like_gradient_variance",

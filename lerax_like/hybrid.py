@@ -143,10 +143,12 @@ class _Surfaces(eqx.Module):
 
     def _forces(self, y: State, u: Input, resting: Bool[Array, " k"]) -> Float[Array, " k"]:
         derivative = self.physics.vector_field(0.0, y, u)
-        _, acceleration = self.dynamics.coordinates(derivative)
         forces, start = [], 0
         for contact, size in zip(self.contacts, self.sizes(y)):
             if isinstance(contact, AbstractImpulseContact):
+                # Read here, not before the loop: a scene's own contact (a rimless wheel's
+                # spokes) needs no generalised coordinates of its dynamics.
+                _, acceleration = self.dynamics.coordinates(derivative)
                 force, _ = contact.resting_force(self.dynamics, y, acceleration, resting[start : start + size])
             else:
                 force = jnp.zeros((size,), y.dtype)

@@ -189,7 +189,7 @@ class GradientVarianceConfig:
     def name(self) -> str:
         if self.case is not None:
             return self.case
-        stiff = {k: v for k, v in self.scene_kwargs.items() if k in ("end_stop_stiffness", "joint_damping")}
+        stiff = {k: v for k, v in self.scene_kwargs.items() if k in ("end_stop_stiffness", "restitution", "joint_damping")}
         if not stiff:
             return self.scene
         return self.scene + "[" + ",".join(f"{k}={v:g}" for k, v in stiff.items()) + "]"
@@ -201,18 +201,21 @@ class GradientVarianceConfig:
         The starts, at rest: the cart-pole's pole tilted 0.1 rad from upright, the double
         cart-pole's first pole 0.05 rad (the LQR gain of the default cost then balances
         both without saturating); a cart-pole with end stops 0.1 m from a stop at
-        `track_limit = 0.5`, running into it at 1 m/s, with zero nominal feedback.
+        `track_limit = 0.5`, running into it at 1 m/s, with zero nominal feedback; the same
+        with walls located as events (`restitution`).
         """
         settings: dict[str, Any] = dict(scene=scene)
         kwargs = dict(overrides.pop("scene_kwargs", {}))
         if scene == "CartPole":
             settings["scene"] = "CartPoleContinuous"
         if settings["scene"] == "CartPoleContinuous":
-            if kwargs.get("end_stop_stiffness", 0):
+            # The same run into the end of the rail, with penalty end stops or located walls.
+            if kwargs.get("end_stop_stiffness", 0) or "restitution" in kwargs:
                 kwargs.setdefault("track_limit", 0.5)
                 kwargs.setdefault("x_threshold", math.inf)
-                # A damping ratio of about 0.1 with the cart and pole's 1.1 kg.
-                kwargs.setdefault("end_stop_damping", 0.2 * math.sqrt(kwargs["end_stop_stiffness"]))
+                if "restitution" not in kwargs:
+                    # A damping ratio of about 0.1 with the cart and pole's 1.1 kg.
+                    kwargs.setdefault("end_stop_damping", 0.2 * math.sqrt(kwargs["end_stop_stiffness"]))
                 settings.update(
                     initial_state=(float(kwargs["track_limit"]) - 0.1, 1.0, 0.0, 0.0),
                     solvers=("tsit5",),

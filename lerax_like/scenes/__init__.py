@@ -25,6 +25,7 @@ _REGISTERED = (
     "n_link_pendulum:NLinkPendulum",
     "planar_quadrotor:PlanarQuadrotor",
     "bouncing_ball:BouncingBall",
+    "rimless_wheel:RimlessWheel",
 )
 
 

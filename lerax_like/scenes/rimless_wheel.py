@@ -1,0 +1,109 @@
+from typing import ClassVar, final
+
+import equinox as eqx
+import jax.numpy as jnp
+
+from .._fields import NONNEGATIVE, POSITIVE, parameter
+from .._types import Array, BoolScalar, Input, Key, Scalar
+from ..env import AbstractEnv, EnvState, dynamics, episode_limit, integrator, time_step
+from ..integrate import Integrator
+from ..physics.rimless_wheel import RimlessWheelDynamics, SpokeContact
+from ..spaces import Box
+
+
+@final
+class RimlessWheel(AbstractEnv):
+    """Roll a rimless wheel down a slope at a target speed with a bounded ankle torque.
+
+    ## Description
+    The passive walker of underactuated-robotics courses (`RimlessWheelDynamics`): a hub
+    with spokes of length `leg_length`, `2 spoke_half_angle` apart, on a slope of
+    `slope` radians. In stance it is an inverted pendulum about the stance foot; each
+    heel strike (the next spoke landing) is located as an event within the step and
+    followed by the impact map that conserves the angular momentum about the new foot
+    (`SpokeContact`, `lerax_like.hybrid`), a rear strike likewise when the wheel rolls
+    back. Passive (zero torque) and started fast enough to pass over the top, it settles
+    onto its rolling limit cycle, whose post-impact speed is
+    `dynamics.limit_cycle_speed` (1.0954628... rad/s with the defaults, Tedrake's and
+    Drake's: 8 spokes, slope 0.08, l = 1, g = 9.81).
+
+    ## Action Space
+    `Box(-1, 1, (1,))`, clipped to that range: the ankle torque `max_torque * a` (N m)
+    at the stance foot, positive downhill.
+
+    ## Observation Space
+    `[theta, theta_dot]`: the stance spoke's angle from the vertical (rad, in
+    `[slope - alpha, slope + alpha]`) and its rate (rad/s), positive downhill.
+
+    ## Rewards
+    `-min((theta_dot - target_speed)**2, max_cost) - action_cost * a**2` after the step:
+    0 rolling at the target speed at no effort, never below `-max_cost - action_cost`.
+
+    ## Starting State
+    Just after a heel strike, `theta = slope - alpha`, with `theta_dot` uniform in
+    `[1.1, 2.5]` times the speed that carries the hub over the top
+    (`dynamics.speed_to_pass_the_top`).
+
+    ## Episode End
+    Never terminated, except when the integration fails (`info["solver_ok"]`, a step
+    that would need more than `max_events` strikes). Truncated after
+    `max_episode_steps` (400) steps.
+
+    ## Arguments
+    `dynamics` (a `RimlessWheelDynamics`) or its parameters flat: `leg_length` (1),
+    `spoke_half_angle` (pi / 8), `slope` (0.08), `gravity` (9.81), `mass` (1). The
+    contact (`contacts`, a `SpokeContact`) or its parameters flat:
+    `min_rebound_speed` (1e-3 rad/s), `max_events` (32). `max_torque` (1), `target_speed`
+    (1.5 rad/s), `max_cost`, `action_cost`, `dt` (0.05), `integrator` or `solver`
+    (default `"tsit5"`) with `stepsize_controller`, `max_episode_steps`.
+    """
+
+    stochastic: ClassVar[bool] = False  # nothing random but the start
+    addons: ClassVar[tuple[type, ...]] = (SpokeContact,)
+
+    dynamics: RimlessWheelDynamics = dynamics(RimlessWheelDynamics)
+    integrator: Integrator = integrator("tsit5")
+    contacts: tuple = eqx.field(default_factory=lambda: (SpokeContact(),))
+    max_torque: Scalar = parameter(1.0, POSITIVE)
+    target_speed: Scalar = parameter(1.5, POSITIVE)
+    max_cost: Scalar = parameter(25.0, POSITIVE)
+    action_cost: Scalar = parameter(0.01, NONNEGATIVE)
+    dt: Scalar = time_step(0.05)
+    max_episode_steps: int | None = episode_limit(400)
+
+    @property
+    def action_space(self) -> Box:
+        return Box(-1.0, 1.0, (1,))
+
+    @property
+    def observation_space(self) -> Box:
+        return Box(-jnp.inf, jnp.inf, (2,))
+
+    @property
+    def initial_bounds(self) -> tuple[Array, Array]:
+        dtype = self.dt.dtype
+        wheel = self.dynamics
+        theta = (wheel.slope - wheel.spoke_half_angle).astype(dtype)
+        over = wheel.speed_to_pass_the_top.astype(dtype)
+        return jnp.stack([theta, 1.1 * over]), jnp.stack([theta, 2.5 * over])
+
+    def physical_input(self, action: Array) -> Input:
+        return self.max_torque * jnp.clip(jnp.reshape(action, (1,)), -1.0, 1.0)
+
+    def observation(self, state: EnvState, *, key: Key | None) -> Array:
+        del key
+        return state.y
+
+    def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
+        del state, key
+        error = (next_state.y[1] - self.target_speed) ** 2
+        effort = jnp.sum(jnp.clip(jnp.reshape(action, (1,)), -1.0, 1.0) ** 2)
+        return -jnp.minimum(error, self.max_cost) - self.action_cost * effort
+
+    @property
+    def worst_reward(self) -> Scalar:
+        return -self.max_cost - self.action_cost
+
+    def terminal(self, state: EnvState, *, key: Key | None) -> BoolScalar:
+        del state, key
+        return jnp.asarray(False)
