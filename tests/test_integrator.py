@@ -75,10 +75,18 @@ def test_one_constant_step_is_diffeqsolves_step(preset, scene_cls):
 
     @eqx.filter_jit
     def both(scene, y0, u):
-        # Gradients with respect to the physical parameters, the start and the input.
-        gradient = jax.grad(loss, argnums=(1, 2, 3))
-        ours = (_integrate(integrator, scene, y0, u), gradient(lambda *a: _integrate(*a)[0], scene, y0, u))
-        return ours, (_reference(integrator, scene, y0, u), gradient(_reference, scene, y0, u))
+        # Gradients with respect to the physical parameters (the scene's floating-point
+        # leaves: its episode limit is an integer leaf), the start and the input.
+        parameters, rest = eqx.partition(scene, eqx.is_inexact_array)
+
+        def gradient(step):
+            def of(parameters, y0, u):
+                return loss(step, eqx.combine(parameters, rest), y0, u)
+
+            return jax.grad(of, argnums=(0, 1, 2))(parameters, y0, u)
+
+        ours = (_integrate(integrator, scene, y0, u), gradient(lambda *a: _integrate(*a)[0]))
+        return ours, (_reference(integrator, scene, y0, u), gradient(_reference))
 
     ((y1, info), gradient), (reference, reference_gradient) = both(scene, y0, u)
     assert tree_allclose(y1, reference, rtol=1e-14, atol=1e-15)
