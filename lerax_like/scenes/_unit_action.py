@@ -31,5 +31,9 @@ class AbstractUnitActionEnv(AbstractEnv):
         """`action` clipped to `[-1, 1]` entry by entry, as the physics and the rewards read it."""
         return jnp.clip(jnp.reshape(action, (self.action_size,)), -1.0, 1.0)
 
+    def effort(self, action: Array) -> Float[Array, ""]:
+        """The squared norm of `clipped(action)`: the control effort a task's reward charges."""
+        return jnp.sum(self.clipped(action) ** 2)
+
 
 __all__ = ["AbstractUnitActionEnv"]

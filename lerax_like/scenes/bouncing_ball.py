@@ -5,14 +5,14 @@ import jax.numpy as jnp
 
 from .._fields import FINITE, NONNEGATIVE, POSITIVE, parameter
 from .._types import Array, BoolScalar, Input, Key, Scalar
-from ..env import AbstractEnv, EnvState, dynamics, episode_limit, integrator, time_step
+from ..env import EnvState, dynamics, episode_limit, integrator, time_step
 from ..integrate import Integrator
 from ..physics.ball import BallDynamics, FloorAndWall
-from ..spaces import Box
+from ._unit_action import AbstractUnitActionEnv
 
 
 @final
-class BouncingBall(AbstractEnv):
+class BouncingBall(AbstractUnitActionEnv):
     """Steer a bouncing ball with a bounded thrust to a target point and hold it there.
 
     ## Description
@@ -53,6 +53,7 @@ class BouncingBall(AbstractEnv):
     """
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
+    action_size: ClassVar[int] = 2
     addons: ClassVar[tuple[type, ...]] = (FloorAndWall,)
 
     dynamics: BallDynamics = dynamics(BallDynamics)
@@ -69,32 +70,19 @@ class BouncingBall(AbstractEnv):
     max_episode_steps: int | None = episode_limit(200)
 
     @property
-    def action_space(self) -> Box:
-        return Box(-1.0, 1.0, (2,))
-
-    @property
-    def observation_space(self) -> Box:
-        return Box(-jnp.inf, jnp.inf, (4,))
-
-    @property
     def initial_bounds(self) -> tuple[Array, Array]:
         dtype = self.dt.dtype
         return jnp.array([-0.5, 0.5, 0.0, 0.0], dtype), jnp.array([0.5, 1.5, 0.0, 0.0], dtype)
 
     def physical_input(self, action: Array) -> Input:
-        return self.max_thrust * jnp.clip(jnp.reshape(action, (2,)), -1.0, 1.0)
-
-    def observation(self, state: EnvState, *, key: Key | None) -> Array:
-        del key
-        return state.y
+        return self.max_thrust * self.clipped(action)
 
     def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
         del state, key
         offset = next_state.y[:2] - jnp.stack([self.target_x, self.target_z])
         # The distance's gradient is undefined at the target itself; its square is not.
         distance = jnp.sqrt(jnp.sum(offset**2) + jnp.finfo(offset.dtype).tiny)
-        effort = jnp.sum(jnp.clip(jnp.reshape(action, (2,)), -1.0, 1.0) ** 2)
-        return -jnp.minimum(distance, self.max_distance) - self.action_cost * effort
+        return -jnp.minimum(distance, self.max_distance) - self.action_cost * self.effort(action)
 
     @property
     def worst_reward(self) -> Scalar:

@@ -4,15 +4,15 @@ import equinox as eqx
 import jax.numpy as jnp
 
 from .._fields import NONNEGATIVE, POSITIVE, parameter
-from .._types import Array, BoolScalar, Input, Key, Scalar
-from ..env import AbstractEnv, EnvState, dynamics, episode_limit, integrator, time_step
+from .._types import Array, Input, Key, Scalar
+from ..env import EnvState, dynamics, episode_limit, integrator, time_step
 from ..integrate import Integrator
 from ..physics.rimless_wheel import RimlessWheelDynamics, SpokeContact
-from ..spaces import Box
+from ._unit_action import AbstractUnitActionEnv
 
 
 @final
-class RimlessWheel(AbstractEnv):
+class RimlessWheel(AbstractUnitActionEnv):
     """Roll a rimless wheel down a slope at a target speed with a bounded ankle torque.
 
     ## Description
@@ -59,6 +59,7 @@ class RimlessWheel(AbstractEnv):
     """
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
+    action_size: ClassVar[int] = 1
     addons: ClassVar[tuple[type, ...]] = (SpokeContact,)
 
     dynamics: RimlessWheelDynamics = dynamics(RimlessWheelDynamics)
@@ -72,14 +73,6 @@ class RimlessWheel(AbstractEnv):
     max_episode_steps: int | None = episode_limit(400)
 
     @property
-    def action_space(self) -> Box:
-        return Box(-1.0, 1.0, (1,))
-
-    @property
-    def observation_space(self) -> Box:
-        return Box(-jnp.inf, jnp.inf, (2,))
-
-    @property
     def initial_bounds(self) -> tuple[Array, Array]:
         dtype = self.dt.dtype
         wheel = self.dynamics
@@ -88,22 +81,13 @@ class RimlessWheel(AbstractEnv):
         return jnp.stack([theta, 1.1 * over]), jnp.stack([theta, 2.5 * over])
 
     def physical_input(self, action: Array) -> Input:
-        return self.max_torque * jnp.clip(jnp.reshape(action, (1,)), -1.0, 1.0)
-
-    def observation(self, state: EnvState, *, key: Key | None) -> Array:
-        del key
-        return state.y
+        return self.max_torque * self.clipped(action)
 
     def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
         del state, key
         error = (next_state.y[1] - self.target_speed) ** 2
-        effort = jnp.sum(jnp.clip(jnp.reshape(action, (1,)), -1.0, 1.0) ** 2)
-        return -jnp.minimum(error, self.max_cost) - self.action_cost * effort
+        return -jnp.minimum(error, self.max_cost) - self.action_cost * self.effort(action)
 
     @property
     def worst_reward(self) -> Scalar:
         return -self.max_cost - self.action_cost
-
-    def terminal(self, state: EnvState, *, key: Key | None) -> BoolScalar:
-        del state, key
-        return jnp.asarray(False)

@@ -77,9 +77,8 @@ class VanDerPol(AbstractUnitActionEnv):
         del state, key
         x, v = next_state.y
         radius = jnp.sqrt(x**2 + v**2)
-        effort = jnp.sum(self.clipped(action) ** 2)
         error = jnp.minimum(jnp.abs(radius - self.target_amplitude), _ERROR_CAP)
-        return -(error**2) - self.action_cost * effort
+        return -(error**2) - self.action_cost * self.effort(action)
 
     @property
     def worst_reward(self) -> Scalar:
