@@ -69,6 +69,22 @@ def test_register_scene_refuses_what_is_not_a_concrete_final_scene():
     with pytest.raises(TypeError, match="AbstractCartPole is abstract: it does not declare action_space"):
         ll.register_scene(ll.scenes.AbstractCartPole)
 
+    @typing.final
+    class Unscaled(ll.AbstractUnitActionEnv):  # a unit action that says neither how it acts nor its scale
+        stochastic: typing.ClassVar[bool] = False
+        action_size: typing.ClassVar[int] = 1
+        dynamics: ll.VanDerPolDynamics = ll.env.dynamics(ll.VanDerPolDynamics)
+        integrator: ll.Integrator = ll.env.integrator("rk4")
+        dt: jax.Array = ll.env.time_step(0.05)
+        max_episode_steps: int | None = ll.env.episode_limit(10)
+        initial_bounds = worst_reward = None
+
+        def reward(self, state, action, next_state, *, key):
+            return 0.0
+
+    with pytest.raises(TypeError, match=r"Unscaled is abstract: it does not declare action_scale \(or physical_input\)"):
+        ll.register_scene(Unscaled)
+
     class Unmarked(ll.CartPole):  # concrete, but not @final
         pass
 

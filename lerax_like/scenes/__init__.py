@@ -11,6 +11,7 @@ from collections.abc import Mapping
 from types import MappingProxyType
 
 from ..env import AbstractEnv
+from ._unit_action import AbstractUnitActionEnv as AbstractUnitActionEnv
 
 
 _REGISTERED = (
@@ -45,6 +46,12 @@ def _abstract_parts(scene: type) -> list[str]:
     """What `scene` leaves abstract: methods, and Equinox's abstract fields and class variables."""
     parts = set(getattr(scene, "__abstractmethods__", ()))
     parts |= set(getattr(scene, "__abstractvars__", ())) | set(getattr(scene, "__abstractclassvars__", ()))
+    if (
+        issubclass(scene, AbstractUnitActionEnv)
+        and scene.physical_input is AbstractUnitActionEnv.physical_input
+        and scene.action_scale is None
+    ):
+        parts.add("action_scale (or physical_input)")
     return sorted(parts)
 
 
@@ -86,6 +93,5 @@ globals().update(SCENES)
 
 from .cartpole import AbstractCartPole as AbstractCartPole  # noqa: E402
 from .mountain_car import AbstractMountainCar as AbstractMountainCar  # noqa: E402
-from ._unit_action import AbstractUnitActionEnv as AbstractUnitActionEnv  # noqa: E402
 
 __all__ = ["SCENES", "AbstractCartPole", "AbstractMountainCar", "AbstractUnitActionEnv", "is_abstract_scene", "register_scene", *SCENES]

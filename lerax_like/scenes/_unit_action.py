@@ -1,10 +1,11 @@
 """Continuous actions in the unit box: what the continuous scenes share."""
 
 import abc
+from typing import ClassVar
 
 import jax.numpy as jnp
 
-from .._types import Array, Float
+from .._types import Array, Float, Input
 from ..env import AbstractEnv
 from ..spaces import Box
 
@@ -14,9 +15,14 @@ class AbstractUnitActionEnv(AbstractEnv):
 
     The convention of Gymnasium's continuous control tasks: an agent's output is scaled
     once, by the scene, to a force, a torque or a thrust. The scene declares `action_size`
-    (`n`; a class variable, or a property where it depends on the instance) and maps
-    `clipped(action)` to its physical input in `physical_input`.
+    (`n`; a class variable, or a property where it depends on the instance) and
+    `action_scale`, the parameter that `clipped(action)` is multiplied by to give the
+    physical input (`"force_mag"`: a unit action is `force_mag` newtons). A scene whose
+    input is no such product (a hover thrust plus a part) writes `physical_input` instead.
     """
+
+    action_scale: ClassVar[str | None] = None
+    """The name of the parameter that scales the clipped action to the physical input."""
 
     @property
     @abc.abstractmethod
@@ -30,6 +36,15 @@ class AbstractUnitActionEnv(AbstractEnv):
     def clipped(self, action: Array) -> Float[Array, " n"]:
         """`action` clipped to `[-1, 1]` entry by entry, as the physics and the rewards read it."""
         return jnp.clip(jnp.reshape(action, (self.action_size,)), -1.0, 1.0)
+
+    def physical_input(self, action: Array) -> Input:
+        """`clipped(action)` times the parameter that `action_scale` names."""
+        if self.action_scale is None:
+            raise NotImplementedError(
+                f"{type(self).__name__} must declare `action_scale` (the parameter a unit action is scaled "
+                "by) or write `physical_input`"
+            )
+        return getattr(self, self.action_scale) * self.clipped(action)
 
     def effort(self, action: Array) -> Float[Array, ""]:
         """The squared norm of `clipped(action)`: the control effort a task's reward charges."""

@@ -4,7 +4,7 @@ import equinox as eqx
 import jax.numpy as jnp
 
 from .._fields import FINITE, NONNEGATIVE, POSITIVE, parameter
-from .._types import Array, BoolScalar, Input, Key, Scalar
+from .._types import Array, BoolScalar, Key, Scalar
 from ..env import EnvState, dynamics, episode_limit, integrator, time_step
 from ..integrate import Integrator
 from ..physics.ball import BallDynamics, FloorAndWall
@@ -54,6 +54,7 @@ class BouncingBall(AbstractUnitActionEnv):
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
     action_size: ClassVar[int] = 2
+    action_scale: ClassVar[str] = "max_thrust"
     addons: ClassVar[tuple[type, ...]] = (FloorAndWall,)
 
     dynamics: BallDynamics = dynamics(BallDynamics)
@@ -73,9 +74,6 @@ class BouncingBall(AbstractUnitActionEnv):
     def initial_bounds(self) -> tuple[Array, Array]:
         dtype = self.dt.dtype
         return jnp.array([-0.5, 0.5, 0.0, 0.0], dtype), jnp.array([0.5, 1.5, 0.0, 0.0], dtype)
-
-    def physical_input(self, action: Array) -> Input:
-        return self.max_thrust * self.clipped(action)
 
     def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
         del state, key

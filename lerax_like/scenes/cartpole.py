@@ -163,12 +163,10 @@ class CartPoleContinuous(AbstractCartPole, AbstractUnitActionEnv):
     # `reward` is the keyword users know; the field is `reward_kind`, as `reward` is the method.
     aliases: ClassVar[tuple[tuple[str, str], ...]] = (("reward", "reward_kind"),)
     action_size: ClassVar[int] = 1
+    action_scale: ClassVar[str] = "force_mag"
 
     action_cost: Scalar = parameter(1e-3, NONNEGATIVE)
     reward_kind: Literal["gymnasium", "smooth"] = option("gymnasium", ("gymnasium", "smooth"))
-
-    def physical_input(self, action: Array) -> Input:
-        return self.force_mag * self.clipped(action)
 
     def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
         del state, key

@@ -4,7 +4,7 @@ from typing import ClassVar, Literal, final
 import jax.numpy as jnp
 
 from .._fields import NONNEGATIVE, POSITIVE, POSITIVE_OR_INF, option, parameter
-from .._types import Array, BoolScalar, Input, Key, Scalar
+from .._types import Array, BoolScalar, Key, Scalar
 from ..env import EnvState, dynamics, episode_limit, integrator, time_step
 from ..integrate import Integrator
 from ..physics.chain import CartChainDynamics
@@ -71,6 +71,7 @@ class DoubleCartPole(AbstractUnitActionEnv):
     stochastic: ClassVar[bool] = False  # nothing random but the start
     addons: ClassVar[tuple[type, ...]] = (JointDamping, EndStops, Walls)
     action_size: ClassVar[int] = 1
+    action_scale: ClassVar[str] = "force_mag"
 
     task: Literal["balance", "swing_up"] = option("balance", ("balance", "swing_up"))
     dynamics: CartChainDynamics = dynamics(CartChainDynamics)
@@ -90,9 +91,6 @@ class DoubleCartPole(AbstractUnitActionEnv):
         if self.task == "swing_up":
             centre = centre.at[1:3].set(math.pi)
         return centre - 0.05, centre + 0.05
-
-    def physical_input(self, action: Array) -> Input:
-        return self.force_mag * self.clipped(action)
 
     def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
         del state, key

@@ -154,13 +154,11 @@ class MountainCarContinuous(AbstractMountainCar, AbstractUnitActionEnv):
     """
 
     action_size: ClassVar[int] = 1
+    action_scale: ClassVar[str] = "power"
 
     power: Scalar = parameter(0.0015, POSITIVE)
     goal_position: Scalar = parameter(0.45, FINITE)
     max_episode_steps: int | None = episode_limit(999)
-
-    def physical_input(self, action: Array) -> Input:
-        return self.power * self.clipped(action)
 
     def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
         del state

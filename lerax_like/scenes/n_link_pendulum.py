@@ -4,7 +4,7 @@ from typing import ClassVar, final
 import jax.numpy as jnp
 
 from .._fields import NONNEGATIVE, parameter
-from .._types import Array, Input, Key, Scalar
+from .._types import Array, Key, Scalar
 from ..env import EnvState, dynamics, episode_limit, integrator, time_step
 from ..integrate import Integrator
 from ..physics.chain import NLinkPendulumDynamics
@@ -50,6 +50,7 @@ class NLinkPendulum(AbstractUnitActionEnv):
     """
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
+    action_scale: ClassVar[str] = "max_torque"
 
     dynamics: NLinkPendulumDynamics = dynamics(NLinkPendulumDynamics)
     integrator: Integrator = integrator("rk4")
@@ -71,9 +72,6 @@ class NLinkPendulum(AbstractUnitActionEnv):
         # Angles uniform in [-pi, pi), rates in [-0.05, 0.05).
         high = jnp.repeat(jnp.array([math.pi, 0.05], dtype=self.dt.dtype), self.n_links)
         return -high, high
-
-    def physical_input(self, action: Array) -> Input:
-        return self.max_torque * self.clipped(action)
 
     def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
         del state, key

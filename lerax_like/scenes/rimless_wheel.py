@@ -4,7 +4,7 @@ import equinox as eqx
 import jax.numpy as jnp
 
 from .._fields import NONNEGATIVE, POSITIVE, parameter
-from .._types import Array, Input, Key, Scalar
+from .._types import Array, Key, Scalar
 from ..env import EnvState, dynamics, episode_limit, integrator, time_step
 from ..integrate import Integrator
 from ..physics.rimless_wheel import RimlessWheelDynamics, SpokeContact
@@ -60,6 +60,7 @@ class RimlessWheel(AbstractUnitActionEnv):
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
     action_size: ClassVar[int] = 1
+    action_scale: ClassVar[str] = "max_torque"
     addons: ClassVar[tuple[type, ...]] = (SpokeContact,)
 
     dynamics: RimlessWheelDynamics = dynamics(RimlessWheelDynamics)
@@ -79,9 +80,6 @@ class RimlessWheel(AbstractUnitActionEnv):
         theta = (wheel.slope - wheel.spoke_half_angle).astype(dtype)
         over = wheel.speed_to_pass_the_top.astype(dtype)
         return jnp.stack([theta, 1.1 * over]), jnp.stack([theta, 2.5 * over])
-
-    def physical_input(self, action: Array) -> Input:
-        return self.max_torque * self.clipped(action)
 
     def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
         del state, key

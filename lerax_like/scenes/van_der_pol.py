@@ -3,7 +3,7 @@ from typing import ClassVar, final
 import jax.numpy as jnp
 
 from .._fields import NONNEGATIVE, POSITIVE, parameter
-from .._types import Array, Input, Key, Scalar
+from .._types import Array, Key, Scalar
 from ..env import EnvState, dynamics, episode_limit, integrator, time_step
 from ..integrate import Integrator
 from ..physics import VanDerPolDynamics
@@ -57,6 +57,7 @@ class VanDerPol(AbstractUnitActionEnv):
     # Stiff from mu of about 100: the studies take their reference from SciPy's Radau.
     stiff: ClassVar[bool] = True
     action_size: ClassVar[int] = 1
+    action_scale: ClassVar[str] = "force_mag"
 
     dynamics: VanDerPolDynamics = dynamics(VanDerPolDynamics)
     integrator: Integrator = integrator("tsit5")
@@ -69,9 +70,6 @@ class VanDerPol(AbstractUnitActionEnv):
     @property
     def initial_bounds(self) -> tuple[Array, Array]:
         return jnp.full(2, -0.5, self.dt.dtype), jnp.full(2, 0.5, self.dt.dtype)
-
-    def physical_input(self, action: Array) -> Input:
-        return self.force_mag * self.clipped(action)
 
     def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
         del state, key
