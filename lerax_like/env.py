@@ -81,7 +81,8 @@ class Attempt(NamedTuple):
     observation: Array
     reward: Scalar
     info: dict[str, Array]
-    """The solver's info; `solver_ok` (the solve, the observation and the reward finite) and `action_ok`."""
+    """The solver's info (`solver_ok`: the solve alone) and `action_ok`; `conclude` adds the
+    observation's and the reward's finiteness to `solver_ok`."""
 
 
 def step_keys(key: Key | None, stochastic: bool) -> StepKeys:
@@ -369,11 +370,14 @@ class AbstractEnv(eqx.Module):
         return self.conclude(state, trial, self.observation(state, key=keys.observation), key=key)
 
     def attempt(self, state: EnvState, action: Array, *, key: Key | None) -> "Attempt":
-        """The first half of `advance`: the step as integrated and observed, with its checks
-        (`info["solver_ok"]`, `info["action_ok"]`), before the failure rule (`conclude`).
+        """The first half of `advance`: the step as integrated and observed, with the solve's
+        and the action's checks (`info["solver_ok"]`, `info["action_ok"]`), before the
+        failure rule (`conclude`).
 
         A caller that holds the pre-step observation already (a batched front end carries the
-        last one it returned) passes it to `conclude` instead of observing `state` again.
+        last one it returned) passes it to `conclude` instead of observing `state` again; one
+        that returns the observation in another dtype casts `attempt.observation` before
+        `conclude`, which checks what is returned.
         """
         action = self.action_space.check(action, "action")
         self.check_state(state)
@@ -385,22 +389,24 @@ class AbstractEnv(eqx.Module):
         next_state, info = self.transition(state, action, key=keys.transition)
         observation = self.observation(next_state, key=keys.observation)
         reward = self.reward(state, action, next_state, key=keys.reward)
-        ok = info["solver_ok"] & jnp.all(jnp.isfinite(observation)) & jnp.isfinite(reward)
-        return Attempt(next_state, observation, reward, {**info, "solver_ok": ok, "action_ok": action_ok})
+        return Attempt(next_state, observation, reward, {**info, "action_ok": action_ok})
 
     def conclude(
         self, state: EnvState, attempt: "Attempt", previous_observation: Array, *, key: Key | None
     ) -> tuple[EnvState, Array, Scalar, BoolScalar, dict[str, Array]]:
         """The second half of `advance`, its failure rule: an attempt from `state` that failed
-        (`solver_ok` or `action_ok` False) keeps `state`, returns `previous_observation` (the
-        observation of `state`), pays `worst_reward` and terminates."""
+        (the solve, a non-finite observation or reward: `info["solver_ok"]` False; or
+        `action_ok` False) keeps `state`, returns `previous_observation` (the observation of
+        `state`), pays `worst_reward` and terminates."""
         keys = step_keys(key, self.stochastic)
-        applied = attempt.info["solver_ok"] & attempt.info["action_ok"]
+        finite = jnp.all(jnp.isfinite(attempt.observation)) & jnp.isfinite(attempt.reward)
+        info = {**attempt.info, "solver_ok": attempt.info["solver_ok"] & finite}
+        applied = info["solver_ok"] & info["action_ok"]
         next_state = EnvState(y=jnp.where(applied, attempt.next_state.y, state.y), steps=attempt.next_state.steps)
         observation = jnp.where(applied, attempt.observation, previous_observation)
         reward = jnp.where(applied, attempt.reward, jnp.asarray(self.worst_reward, attempt.reward.dtype))
         terminated = self.terminal(next_state, key=keys.terminal) | ~applied
-        return next_state, observation, reward, terminated, attempt.info
+        return next_state, observation, reward, terminated, info
 
     def step(
         self, state: EnvState, action: Array, *, key: Key

@@ -209,16 +209,15 @@ def layer_advance(scene: AbstractEnv, y, steps, action, key, previous):
     observation, reward, terminated, info)`, `previous` being the float32 observation of `y`.
 
     The two halves of `advance`, with the cast between them: a finite float64 state can
-    still overflow float32's range in the observation, and such a step fails by
-    `advance`'s own rule (`conclude`: pre-step state, `previous`, the worst reward,
-    terminated), so nothing non-finite reaches an agent. Passing `previous` (which the
-    layer holds) spares observing `y` again, a second observation per step.
+    still overflow float32's range in the observation, and `conclude` checks the float32
+    observation, so such a step fails by `advance`'s own rule (pre-step state, `previous`,
+    the worst reward, terminated) and nothing non-finite reaches an agent. Passing
+    `previous` (which the layer holds) spares observing `y` again, a second observation
+    per step.
     """
     state = EnvState(y=y, steps=steps)
     trial = scene.attempt(state, action, key=key)
-    observation = trial.observation.astype(jnp.float32)
-    info = {**trial.info, "solver_ok": trial.info["solver_ok"] & jnp.all(jnp.isfinite(observation))}
-    trial = trial._replace(observation=observation, info=info)
+    trial = trial._replace(observation=trial.observation.astype(jnp.float32))
     state, observation, reward, terminated, info = scene.conclude(state, trial, previous, key=key)
     return state.y, state.steps, observation, reward, terminated, info
 
