@@ -51,8 +51,8 @@ def check_actions(space: gymnasium.spaces.Space, actions, num_envs: int, dtype: 
                 f"got {actions!r}"
             )
         # `self.action_space.contains(actions)`, which Gymnasium's vector CartPole asserts,
-        # in a third of its time.
-        if array.min() < space.start or array.max() >= space.start + space.n:
+        # in a third of its time (the ufuncs' own reductions: `array.min()` adds a Python call).
+        if np.minimum.reduce(array) < space.start or np.maximum.reduce(array) >= space.start + space.n:
             index = int(np.flatnonzero((array < space.start) | (array >= space.start + space.n))[0])
             raise ValueError(
                 f"actions[{index}] = {array[index]} is not in {space}: every action must be {_integer_rule(space)}"

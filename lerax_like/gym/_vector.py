@@ -186,28 +186,31 @@ class GymnasiumVectorEnv(VectorEnv):
         return observation
 
     def step(self, actions):
-        actions = check_actions(self.single_action_space, actions, self.num_envs, self.dtype)
+        actions = check_actions(self.single_action_space, actions, self.num_envs, self.batch.dtype)
         mode = self.autoreset_mode
-        restarts = self._ended if mode == AutoresetMode.NEXT_STEP and self._ended.any() else None
-        if mode == AutoresetMode.DISABLED and self._ended.any():
+        # np.count_nonzero: one C call (`ndarray.any` goes through a Python wrapper), the
+        # number of restarts, which the draw needs.
+        ended = np.count_nonzero(self._ended)
+        if ended and mode is AutoresetMode.DISABLED:
             raise RuntimeError(
                 f"envs {np.flatnonzero(self._ended).tolist()} ended at the last step: with autoreset_mode "
                 "DISABLED, restart them with reset(options={'reset_mask': mask}) before stepping"
             )
+        restarts = self._ended if ended and mode is AutoresetMode.NEXT_STEP else None
         if restarts is not None:
             # Gymnasium's vector CartPole draws only when some env restarts, for those envs.
-            starts = self.starts(self.np_random, self._options, int(np.count_nonzero(restarts)))
+            starts = self.starts(self.np_random, self._options, ended)
             outcome = self.batch.advance_or_restart(actions, restarts, starts)
+            # An env that restarted has only its reset's info, which is empty.
+            mask = None if ended == self.num_envs else ~restarts
         else:
             outcome = self.batch.advance(actions)
+            mask = self._info_mask
         self.last_action = actions
         self._ended = outcome.terminated | outcome.truncated
-        # An env that restarted (next step) or restarts (same step) has only its reset's info, which is empty.
-        mask = self._info_mask if restarts is None else ~restarts
         observation, info = outcome.observation, {}
-        if mode == AutoresetMode.SAME_STEP and self._ended.any():
+        if mode is AutoresetMode.SAME_STEP and np.count_nonzero(self._ended):
             ended = self._ended
-            mask = ~ended
             final_obs = np.full(self.num_envs, None, dtype=object)
             for index in np.flatnonzero(ended):
                 final_obs[index] = observation[index].copy()
@@ -215,16 +218,19 @@ class GymnasiumVectorEnv(VectorEnv):
                 "final_obs": final_obs, "_final_obs": ended.copy(),
                 "final_info": self._info(outcome, ended), "_final_info": ended.copy(),
             }
+            # An env that restarts has only its reset's info, which is empty.
+            mask = None if ended.all() else ~ended
             starts = self.starts(self.np_random, self._options, int(np.count_nonzero(ended)))
             observation = self.batch.restart(ended, starts)
         if self.render_mode in ("human", "rgb_array_list"):
-            restarted = self._ended if mode == AutoresetMode.SAME_STEP else restarts
+            restarted = self._ended if mode is AutoresetMode.SAME_STEP else restarts
             self._rendered(np.zeros(self.num_envs, dtype=np.bool_) if restarted is None else restarted)
         return observation, outcome.reward, outcome.terminated, outcome.truncated, {**self._info(outcome, mask), **info}
 
-    def _info(self, outcome: Outcome, mask: np.ndarray) -> dict[str, np.ndarray]:
-        # As Gymnasium's `_add_info`: a key only when some env has it.
-        if mask is not self._info_mask and not mask.any():
+    def _info(self, outcome: Outcome, mask: np.ndarray | None) -> dict[str, np.ndarray]:
+        """The step's info for the envs of `mask` (None: no env), as Gymnasium's `_add_info`
+        builds it: a key only when some env has it."""
+        if mask is None:
             return {}
         mask = mask.copy()  # one copy for the three keys, which have the same envs
         return {
