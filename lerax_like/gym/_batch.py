@@ -33,6 +33,8 @@ class Outcome(NamedTuple):
     solver_ok: np.ndarray
     solver_steps: np.ndarray
     action_ok: np.ndarray
+    """True for every env: the front ends refuse an inadmissible action (`check_actions`)
+    before it reaches the batch, so the compiled step does not return the flag."""
 
 
 @final
@@ -240,10 +242,10 @@ class Batch:
         # np.array (a writable copy) of the observation, not jax.device_get: the latter
         # costs far more for arrays this small. Every result is a new array.
         rows = np.asarray(rows)
-        flags = rows[1:] != 0  # one NumPy call for the four flags: host calls dominate a small step
+        flags = rows[1:4] != 0  # one NumPy call for the three flags: host calls dominate a small step
         return Outcome(
             np.array(self._observation), rows[0].copy(), flags[0], flags[1], flags[2], rows[4].astype(np.int64),
-            flags[4],
+            np.ones(self.num_envs, dtype=np.bool_),
         )
 
     # Pickling (to save, checkpoint, or ship to a worker process): the compiled functions

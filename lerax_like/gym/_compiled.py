@@ -76,8 +76,9 @@ class Compiled(NamedTuple):
     - `batch_advance(parameters, y, steps, action, key, observation) -> (y, steps,
       observation, outcome, key)`: all envs step (`observation`, the observation of `y`
       returned last, is what a failed step returns again); `outcome` has one row each for
-      the reward, terminated, truncated (`AbstractEnv.truncate`), `solver_ok`,
-      `solver_steps` and `action_ok`.
+      the reward, terminated, truncated (`AbstractEnv.truncate`), `solver_ok` and
+      `solver_steps` (not `action_ok`: the front ends refuse an inadmissible action before
+      the step, so it is always True there).
     - `batch_advance_or_restart(..., observation, mask, starts)`: as `batch_advance`,
       except that the envs of `mask` restart from `starts` instead of stepping, with
       their fresh observation, reward 0, no end (Gymnasium's next-step autoreset). One
@@ -269,7 +270,7 @@ def _functions(treedef, static, layout) -> Compiled:
     def outcome_rows(reward, terminated, truncated, info):
         # One array for the host besides the observation: a row each (rows of it are
         # contiguous arrays on the host).
-        rows = (reward, terminated, truncated, info["solver_ok"], info["solver_steps"], info["action_ok"])
+        rows = (reward, terminated, truncated, info["solver_ok"], info["solver_steps"])
         return jnp.stack([jnp.astype(x, reward.dtype) for x in rows])
 
     def restart(parameters, y, steps, key, observation, mask, starts):
@@ -318,7 +319,6 @@ def _functions(treedef, static, layout) -> Compiled:
         info = {
             "solver_ok": info["solver_ok"] | mask,
             "solver_steps": jnp.where(mask, 0, info["solver_steps"]),
-            "action_ok": info["action_ok"] | mask,
         }
         return y, steps, observation, outcome_rows(reward, terminated & ~mask, truncated & ~mask, info), key
 
