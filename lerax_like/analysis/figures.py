@@ -278,17 +278,20 @@ def plot_gradient_variance(result, path=None):
     One row of panels per policy and sigma: the variance (log) with the first-order
     variance the Lyapunov exponent predicts (dotted); the bias with its standard error
     (the band noise alone gives); the relative error of the float32 gradient against
-    float64 at the nominal `theta`. `result` is what `run_gradient_variance` returns.
+    float64 at the nominal `theta`, where the study measured it (`config.precision`).
+    `result` is what `run_gradient_variance` returns.
     Returns the figure; saves it when `path` is given.
     """
     plt = pyplot()
     config = result.config
     panels = [(kind, sigma) for kind in config.policies for sigma in config.sigmas]
-    figure, axes = plt.subplots(len(panels), 3, figsize=(15, 3.6 * len(panels)), squeeze=False)
+    columns = 3 if config.precision else 2
+    figure, axes = plt.subplots(len(panels), columns, figsize=(5 * columns, 3.6 * len(panels)), squeeze=False)
     colours = {"first_order": "C0", "zeroth_order": "C1", "alpha_order": "C2"}
     styles = ["-", "--", ":", "-."]
     dt = result.record["dt"]
-    for (kind, sigma), (variance_axis, bias_axis, precision_axis) in zip(panels, axes):
+    for (kind, sigma), (variance_axis, bias_axis, *precision) in zip(panels, axes):
+        precision_axis = precision[0] if precision else None
         for s, solver in enumerate(config.solvers):
             style = styles[s % len(styles)]
             for name in reversed(ESTIMATORS):  # first order on top: alpha order often equals it
@@ -310,7 +313,7 @@ def plot_gradient_variance(result, path=None):
                     variance_axis.plot(h, predicted, color="k", linestyle=style, lw=0.8,
                                        label=f"exp(2 lambda t), lambda = {c['lyapunov_exponent']:.2g}/s, {solver}")
             for p in result.record["precision"]:
-                if p["solver"] == solver and p["policy"] == kind:
+                if precision_axis is not None and p["solver"] == solver and p["policy"] == kind:
                     error = np.asarray(p["relative_error"])
                     precision_axis.semilogy(np.arange(1, len(error) + 1), np.maximum(error, 1e-17),
                                             linestyle=style, label=solver)
@@ -318,17 +321,18 @@ def plot_gradient_variance(result, path=None):
         bias_axis.set_yscale("log")
         variance_axis.set_ylabel("variance (trace of covariance)")
         bias_axis.set_ylabel("|estimate - reference| (thin: noise alone)")
-        precision_axis.axhline(0.1, color="r", lw=0.6, label="leading digit lost")
-        precision_axis.set_ylabel("float32 gradient, relative error")
-        precision_axis.set_xlabel("horizon (env steps)")
-        for axis in (variance_axis, bias_axis):
+        if precision_axis is not None:
+            precision_axis.axhline(0.1, color="r", lw=0.6, label="leading digit lost")
+            precision_axis.set_ylabel("float32 gradient, relative error")
+            precision_axis.set_title(f"{kind}: float32 vs float64 at nominal theta", fontsize="medium")
+        for axis in (variance_axis, bias_axis, *precision):
             axis.set_xlabel("horizon (env steps)")
         variance_axis.set_title(f"{kind}, sigma = {sigma:g}: variance", fontsize="medium")
         bias_axis.set_title(f"{kind}, sigma = {sigma:g}: bias against the reference", fontsize="medium")
-        precision_axis.set_title(f"{kind}: float32 vs float64 at nominal theta", fontsize="medium")
-        for axis in (variance_axis, bias_axis, precision_axis):
+        for axis in (variance_axis, bias_axis, *precision):
             axis.grid(True, which="major", alpha=0.3)
             axis.legend(fontsize="x-small")
     samples = f"N = {config.samples} samples (reference: {config.reference_samples} antithetic)"
-    title = f"{config.name}: gradient estimators over {samples}, dt = {dt:g} s, {config.dtype}"
+    break_ = " " if columns == 3 else "\n"  # two columns are too narrow for one line
+    title = f"{config.name}: gradient estimators over {samples},{break_}dt = {dt:g} s, {config.dtype}"
     return finish_figure(figure, title, path)
