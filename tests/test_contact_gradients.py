@@ -63,3 +63,33 @@ def test_rollout_gradient_through_impacts_matches_finite_differences(scene, solv
     ad = np.asarray(grads[0])
     relative = np.abs(ad - fd) / np.abs(fd)
     assert np.all(relative <= 1e-6), f"{solver}: AD {ad}, FD {fd}, relative error {relative}"
+
+
+@pytest.mark.slow
+def test_rimless_wheel_gradient_through_heel_strikes_matches_finite_differences():
+    # The passive wheel over 60 env steps (3 s, several heel strikes, each relabelling the
+    # stance angle and scaling the speed by cos(2 alpha)): the gradient of a rollout loss
+    # with respect to the start speed, the slope and the spoke half-angle, which moves
+    # both the strike surface and the impact map.
+    env = ll.RimlessWheel(solver="tsit5")
+    wheel = env.dynamics
+    actions = jnp.zeros((60, 1))
+
+    def loss(theta):
+        e = eqx.tree_at(lambda e: (e.dynamics.slope, e.dynamics.spoke_half_angle), env, (theta[1], theta[2]))
+        y0 = jnp.stack([theta[1] - theta[2], theta[0]])  # just after a strike
+        ys, info = ll.rollout(e, ll.EnvState(y=y0, steps=jnp.zeros((), dtype=int)), actions)
+        value = jnp.sum(jnp.sin(ys[:, 0]) ** 2 + 0.1 * ys[:, 1] ** 2)
+        return value, (jnp.sum(info["impacts"]), jnp.all(info["solver_ok"]))
+
+    theta = jnp.array([1.5, float(wheel.slope), float(wheel.spoke_half_angle)])
+    steps = 1e-6 * np.maximum(1.0, np.abs(np.asarray(theta)))
+    shifts = [np.zeros(3)] + [sign * steps[i] * np.eye(3)[i] for i in range(3) for sign in (1, -1)]
+    points = theta + jnp.asarray(np.array(shifts))
+    (values, (impacts, ok)), grads = jax.jit(jax.vmap(jax.value_and_grad(loss, has_aux=True)))(points)
+    assert bool(jnp.all(ok))
+    assert int(jnp.min(impacts)) == int(jnp.max(impacts)) >= 3  # the same strikes at every point
+    fd = np.array([(values[1 + 2 * i] - values[2 + 2 * i]) / (2 * steps[i]) for i in range(3)])
+    ad = np.asarray(grads[0])
+    relative = np.abs(ad - fd) / np.abs(fd)
+    assert np.all(relative <= 1e-6), f"AD {ad}, FD {fd}, relative error {relative}"
