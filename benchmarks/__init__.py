@@ -101,6 +101,10 @@ BENCHMARKS = {
         Benchmark("sb3_vector", "PPO on lerax_like.sb3.make_vec_env against SB3's make_vec_env; the VecEnvs' speed", (_SB3,)),
         Benchmark("contact", "located walls against penalty end stops: throughput and accuracy against SciPy", (_STUDY, _PLOTS)),
         Benchmark(
+            "contact_gradient_variance", "first-order gradient bias and variance through located walls and penalty end stops",
+            (_STUDY, _PLOTS),
+        ),
+        Benchmark(
             "gym_before_after", "the vector env's and the SB3 VecEnv's speed against an older commit's, interleaved",
             (_SB3,),
         ),

@@ -215,6 +215,28 @@ def gradient_variance(folder, link):
     )
 
 
+def contact_gradient_variance(folder, link):
+    rows = _read_csv(folder, "contact_gradient_variance.csv")
+    if rows is None:
+        return []
+    lines = []
+    for figure in sorted(folder.glob("contact_gradient_variance*.png")):
+        lines += [f"![{figure.stem}]({link}/{figure.name})", ""]
+    table = [
+        [r["case"], r["policy"], r["horizon"], _g(r["bias"], 3), _g(r["bias_standard_error"], 2),
+         _g(float(r["bias"]) / float(r["bias_standard_error"]), 2), _g(r["reference_norm"], 3), _g(r["variance"], 2),
+         r["failed_samples"]]
+        for r in rows if r["estimator"] == "first_order"
+    ]
+    lines += ["The first-order (autodiff) estimator's bias against the antithetic zeroth-order reference, with "
+              "the standard error that sampling noise alone gives it (a bias within about two standard errors "
+              "is no evidence of bias); every column in `contact_gradient_variance.csv`:", ""]
+    return lines + _table(
+        ["case", "policy", "horizon", "bias", "standard error", "bias / standard error", "reference norm",
+         "first-order variance", "failed samples"], table,
+    )
+
+
 def gradient_precision(folder, link):
     rows = _read_csv(folder, "gradient_precision.csv")
     if rows is None:
@@ -597,6 +619,7 @@ SECTIONS = {
     "work_precision": work_precision,
     "gradient_error": gradient_error,
     "gradient_variance": gradient_variance,
+    "contact_gradient_variance": contact_gradient_variance,
     "gradient_precision": gradient_precision,
     "gradient_memory": gradient_memory,
     "throughput": throughput,

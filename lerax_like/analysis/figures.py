@@ -334,5 +334,5 @@ def plot_gradient_variance(result, path=None):
             axis.legend(fontsize="x-small")
     samples = f"N = {config.samples} samples (reference: {config.reference_samples} antithetic)"
     break_ = " " if columns == 3 else "\n"  # two columns are too narrow for one line
-    title = f"{config.name}: gradient estimators over {samples},{break_}dt = {dt:g} s, {config.dtype}"
+    title = f"{config.name}:{break_}gradient estimators over {samples}, dt = {dt:g} s, {config.dtype}"
     return finish_figure(figure, title, path)
