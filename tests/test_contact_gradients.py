@@ -37,6 +37,23 @@ def _cartpole(solver):
     return env, y0, actions, lambda e: e.dynamics.pole_mass
 
 
+def _check_against_central_differences(loss, theta, min_impacts: int, label: str) -> None:
+    """AD of `loss` (returning the value and `(impacts, all solves ok)`) at `theta` within 1e-6
+    relative of central differences, the same impacts at every shifted point."""
+    n = theta.shape[0]
+    steps = 1e-6 * np.maximum(1.0, np.abs(np.asarray(theta)))
+    shifts = [np.zeros(n)] + [sign * steps[i] * np.eye(n)[i] for i in range(n) for sign in (1, -1)]
+    points = theta + jnp.asarray(np.array(shifts))
+    # One compiled program: the gradient at theta and the values at the shifted points.
+    (values, (impacts, ok)), grads = jax.jit(jax.vmap(jax.value_and_grad(loss, has_aux=True)))(points)
+    assert bool(jnp.all(ok))
+    assert int(jnp.min(impacts)) == int(jnp.max(impacts)) >= min_impacts  # the same impacts at every point
+    fd = np.array([(values[1 + 2 * i] - values[2 + 2 * i]) / (2 * steps[i]) for i in range(n)])
+    ad = np.asarray(grads[0])
+    relative = np.abs(ad - fd) / np.abs(fd)
+    assert np.all(relative <= 1e-6), f"{label}: AD {ad}, FD {fd}, relative error {relative}"
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("scene", [_ball, _cartpole], ids=["BouncingBall", "CartPole"])
 @pytest.mark.parametrize("solver", EXPLICIT)
@@ -52,17 +69,7 @@ def test_rollout_gradient_through_impacts_matches_finite_differences(scene, solv
         return value, (jnp.sum(info["impacts"]), jnp.all(info["solver_ok"]))
 
     theta = jnp.array([y0[0], float(physical(env)), 0.8])
-    steps = 1e-6 * np.maximum(1.0, np.abs(np.asarray(theta)))
-    shifts = [np.zeros(3)] + [sign * steps[i] * np.eye(3)[i] for i in range(3) for sign in (1, -1)]
-    points = theta + jnp.asarray(np.array(shifts))
-    # One compiled program: the gradient at theta and the values at the shifted points.
-    (values, (impacts, ok)), grads = jax.jit(jax.vmap(jax.value_and_grad(loss, has_aux=True)))(points)
-    assert bool(jnp.all(ok))
-    assert int(jnp.min(impacts)) == int(jnp.max(impacts)) >= 2  # the same impacts at every point
-    fd = np.array([(values[1 + 2 * i] - values[2 + 2 * i]) / (2 * steps[i]) for i in range(3)])
-    ad = np.asarray(grads[0])
-    relative = np.abs(ad - fd) / np.abs(fd)
-    assert np.all(relative <= 1e-6), f"{solver}: AD {ad}, FD {fd}, relative error {relative}"
+    _check_against_central_differences(loss, theta, 2, solver)
 
 
 @pytest.mark.slow
@@ -83,13 +90,4 @@ def test_rimless_wheel_gradient_through_heel_strikes_matches_finite_differences(
         return value, (jnp.sum(info["impacts"]), jnp.all(info["solver_ok"]))
 
     theta = jnp.array([1.5, float(wheel.slope), float(wheel.spoke_half_angle)])
-    steps = 1e-6 * np.maximum(1.0, np.abs(np.asarray(theta)))
-    shifts = [np.zeros(3)] + [sign * steps[i] * np.eye(3)[i] for i in range(3) for sign in (1, -1)]
-    points = theta + jnp.asarray(np.array(shifts))
-    (values, (impacts, ok)), grads = jax.jit(jax.vmap(jax.value_and_grad(loss, has_aux=True)))(points)
-    assert bool(jnp.all(ok))
-    assert int(jnp.min(impacts)) == int(jnp.max(impacts)) >= 3  # the same strikes at every point
-    fd = np.array([(values[1 + 2 * i] - values[2 + 2 * i]) / (2 * steps[i]) for i in range(3)])
-    ad = np.asarray(grads[0])
-    relative = np.abs(ad - fd) / np.abs(fd)
-    assert np.all(relative <= 1e-6), f"AD {ad}, FD {fd}, relative error {relative}"
+    _check_against_central_differences(loss, theta, 3, "RimlessWheel")
