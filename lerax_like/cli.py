@@ -1,7 +1,7 @@
 """The `lerax-like` command: argument parsing only; the work is in `lerax_like.analysis`.
 
     lerax-like study CartPole [--quick] [--out DIR] [--solver NAME ...]
-    lerax-like gradients CartPole [--quick] [--out DIR] [--no-plot] [--solver NAME ...]
+    lerax-like gradients CartPole [--quick] [--out DIR] [--no-plot] [--solver NAME ...] [--scene-keyword KEY=NUMBER ...]
     lerax-like gradient-variance DoubleCartPole [--quick] [--solver NAME ...] [--out DIR] [--no-plot]
     lerax-like rollout CartPole [--steps N] [--seed S]
     lerax-like solvers
@@ -71,6 +71,15 @@ def _solvers_from(arguments, command: str):
         sys.exit(2)
 
 
+def _scene_keywords(arguments, command: str) -> dict[str, float]:
+    """The scene's keywords named by `--scene-keyword KEY=NUMBER`; a malformed one is a usage error (exit 2)."""
+    try:
+        return {key: float(value) for key, value in (pair.split("=", 1) for pair in arguments.scene_keyword)}
+    except ValueError:
+        print(f"lerax-like {command}: --scene-keyword takes KEY=NUMBER, got {arguments.scene_keyword}", file=sys.stderr)
+        sys.exit(2)
+
+
 def _study(arguments) -> int:
     from .analysis import StudyConfig, run_study, sweeps_for, write_study
     from .analysis.report import VERDICT_TARGETS, cheapest_at, format_orders, format_table, matplotlib_available
@@ -84,12 +93,7 @@ def _study(arguments) -> int:
     if solvers is not None:
         overrides["sweeps"] = sweeps_for(solvers, quick=arguments.quick, stiff=SCENES[arguments.scene].stiff)
     if arguments.scene_keyword:
-        try:
-            overrides["scene_kwargs"] = {key: float(value) for key, value in
-                                         (pair.split("=", 1) for pair in arguments.scene_keyword)}
-        except ValueError:
-            print(f"lerax-like study: --scene-keyword takes KEY=NUMBER, got {arguments.scene_keyword}", file=sys.stderr)
-            return 2
+        overrides["scene_kwargs"] = _scene_keywords(arguments, "study")
     config = StudyConfig.default(arguments.scene, quick=arguments.quick, **overrides)
     plot = not arguments.no_plot and matplotlib_available()
     start = time.perf_counter()
@@ -126,6 +130,8 @@ def _gradients(arguments) -> int:
     overrides = {"mode": arguments.mode}
     if arguments.seed is not None:
         overrides["seed"] = arguments.seed
+    if arguments.scene_keyword:
+        overrides["scene_kwargs"] = _scene_keywords(arguments, "gradients")
     solvers = _solvers_from(arguments, "gradients")
     if solvers is not None:
         from .analysis.gradient_accuracy import gradient_sweeps_for
@@ -279,9 +285,10 @@ def main(argv: list[str] | None = None) -> int:
     study.add_argument("--no-progress", action="store_true", help="no progress bar")
     study.add_argument("--no-plot", action="store_true", help="skip the PNG (no matplotlib needed)")
     study.add_argument("--solver", action="append", metavar="NAME", help=SOLVER_HELP)
-    study.add_argument("--scene-keyword", action="append", metavar="KEY=NUMBER",
-                       help="a numeric keyword of the scene, repeatable: --scene-keyword restitution=0.8 "
-                            "--scene-keyword track_limit=0.1 studies CartPoleContinuous with located walls")
+    scene_keyword_help = ("a numeric keyword of the scene, repeatable: --scene-keyword restitution=0.8 "
+                          "--scene-keyword track_limit=0.1 studies CartPoleContinuous with located walls, "
+                          "--scene-keyword end_stop_stiffness=1e4 with penalty end stops")
+    study.add_argument("--scene-keyword", action="append", metavar="KEY=NUMBER", help=scene_keyword_help)
     study.set_defaults(run=_study)
 
     gradients = commands.add_parser(
@@ -295,6 +302,7 @@ def main(argv: list[str] | None = None) -> int:
                            help="jax.jacfwd or jax.grad (default: %(default)s, the cheaper for a few parameters)")
     gradients.add_argument("--no-plot", action="store_true", help="skip the PNG (no matplotlib needed)")
     gradients.add_argument("--solver", action="append", metavar="NAME", help=SOLVER_HELP)
+    gradients.add_argument("--scene-keyword", action="append", metavar="KEY=NUMBER", help=scene_keyword_help)
     gradients.set_defaults(run=_gradients)
 
     variance = commands.add_parser(
