@@ -8,6 +8,8 @@ space, raised explicitly so that it holds under `python -O` (Gymnasium's own env
 as Gymnasium's envs do.
 """
 
+import math
+
 import gymnasium
 import numpy as np
 
@@ -63,10 +65,13 @@ def check_actions(space: gymnasium.spaces.Space, actions, num_envs: int, dtype: 
     except (TypeError, ValueError) as error:
         raise ValueError(f"actions must be a real array, got {actions!r}") from error
     shape = (num_envs, *space.shape)
-    if array.size != np.prod(shape):
+    if array.size != math.prod(shape):  # math.prod: np.prod of a tuple costs more than the rest of the check
         raise ValueError(f"the actions must have shape {shape}, got an array of shape {array.shape}")
     array = array.reshape(shape)
-    if not np.isfinite(array).all():
+    # A NaN or an infinity makes the sum non-finite, so a finite sum (the common case, one
+    # reduction) clears every entry; a non-finite one (perhaps an overflow of finite
+    # entries) is decided entry by entry.
+    if not math.isfinite(np.add.reduce(array, axis=None)) and not np.isfinite(array).all():
         index = int(np.flatnonzero(~np.isfinite(array).all(axis=tuple(range(1, array.ndim))))[0])
         raise ValueError(
             f"actions[{index}] = {array[index].tolist()} is not in {space}: every action must be finite "
