@@ -113,3 +113,20 @@ def test_an_invalid_action_changes_nothing(dtype):
     for actions in (np.array([0, 0, 1]), np.array([1, 1, 1])):
         for ours_result, twin_result in zip(ours.step(actions)[:4], twin.step(actions)[:4], strict=True):
             np.testing.assert_array_equal(ours_result, twin_result)
+
+
+@pytest.mark.parametrize("with_options", [False, True])
+@pytest.mark.parametrize("env_id", ALL_IDS)
+def test_starts_drawn_together_are_each_generator_s_own_start(env_id, with_options):
+    # SB3's envs restart from a generator each, drawn together (`starts_each`): the same
+    # numbers, bit for bit, and the same generator states, as drawing each env's start on
+    # its own with `initial_state` (checked against Gymnasium's envs in test_gym_layer).
+    spec = SPECS[env_id]
+    bounds = _vector(env_id, 1).unwrapped.batch.initial_bounds
+    options = [_OPTIONS[spec.declared.reset_options] if with_options and index == 1 else None for index in range(3)]
+    generators = [np.random.default_rng(seed) for seed in (5, 6, 7)]
+    twins = copy.deepcopy(generators)
+    together = spec.initial_state_each(bounds, generators, options)
+    alone = np.concatenate([spec.initial_state(bounds, g, o, 1) for g, o in zip(twins, options)], axis=1)
+    np.testing.assert_array_equal(together, alone)
+    assert [g.bit_generator.state for g in generators] == [g.bit_generator.state for g in twins]

@@ -181,10 +181,9 @@ class GymSpec:
         vector CartPole; both consume the generator in the same order.
         """
         low, high = bounds
-        drawn = low != high
-        if options is None and self.declared.reset_options == "bounds" and not self.declared.float32_start and drawn.all():
-            # Every coordinate drawn within its bounds (CartPole): the draws below, in short.
+        if self._uniform_start(bounds, options):
             return low[:, None] + (high - low)[:, None] * np_random.random((low.size, num_envs))
+        drawn = low != high
         state = np.repeat(low[:, None], num_envs, axis=1)
         low, high = low[drawn], high[drawn]
         if self.declared.reset_options == "pendulum":
@@ -210,6 +209,30 @@ class GymSpec:
             draws = draws.astype(np.float32)
         state[drawn] = np.reshape(draws, (-1, num_envs))
         return state
+
+    def initial_state_each(self, bounds, generators, options) -> np.ndarray:
+        """One start from each generator with its options, shape `(n, len(generators))`:
+        the numbers of `initial_state(bounds, generator, option, 1)` for each in turn.
+
+        SB3's envs restart one generator each; where the starts are uniform draws within
+        the bounds, only the draws are per env and the scaling is done once for all.
+        """
+        low, high = bounds
+        if all(option is None for option in options) and self._uniform_start(bounds, None):
+            unit = np.concatenate([generator.random((low.size, 1)) for generator in generators], axis=1)
+            return low[:, None] + (high - low)[:, None] * unit
+        columns = [self.initial_state(bounds, generator, option, 1) for generator, option in zip(generators, options)]
+        return np.concatenate(columns, axis=1)
+
+    def _uniform_start(self, bounds, options: dict[str, Any] | None) -> bool:
+        """Whether a start is every coordinate drawn uniformly within its bounds, as
+        Gymnasium's CartPole draws it (no options, none fixed, no float32 rounding)."""
+        declared = self.declared
+        low, high = bounds
+        return (
+            options is None and declared.reset_options == "bounds" and not declared.float32_start
+            and bool((low != high).all())
+        )
 
     def render_sync(self, renderer, scene: AbstractEnv, state: np.ndarray, action) -> None:
         """Prepare Gymnasium's renderer: our state and the spec's attributes."""

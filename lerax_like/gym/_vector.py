@@ -152,6 +152,16 @@ class GymnasiumVectorEnv(VectorEnv):
         starts = self._gym_spec.initial_state(self.batch.initial_bounds, np_random, options, count).T
         return starts.astype(self.dtype, copy=False)
 
+    def starts_each(self, generators: list[np.random.Generator], options: list[dict[str, Any] | None]) -> np.ndarray:
+        """One start from each generator with its options (each env's own, as Gymnasium's
+        single env draws it), shape `(len(generators), n)`, of `dtype`.
+
+        One call for all of them (SB3's envs have a generator each, and some restart at most
+        steps): what is the same for every env is done once.
+        """
+        starts = self._gym_spec.initial_state_each(self.batch.initial_bounds, generators, options).T
+        return starts.astype(self.dtype, copy=False)
+
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
         if seed is not None:

@@ -225,8 +225,9 @@ class CompiledVecEnv(VecEnv):
 
     def _starts(self, indices) -> np.ndarray:
         """Starts of the envs `indices`, each drawn from its own generator as Gymnasium's env draws it."""
-        starts = [self._vector.starts(self._generators[index], self._options[index] or None, 1) for index in indices]
-        return np.concatenate(starts)
+        return self._vector.starts_each(
+            [self._generators[index] for index in indices], [self._options[index] or None for index in indices]
+        )
 
     def close(self) -> None:
         self._vector.close()
