@@ -44,6 +44,18 @@ def relative_error(estimate, reference) -> float:
     return float(np.max(np.abs(estimate - reference)) / max(np.max(np.abs(reference)), 1e-300))
 
 
+# Relative tolerance of a state against Gymnasium's, by id (the Gymnasium and SB3 layers'
+# parity tests): Gymnasium's MountainCarContinuous keeps its state in float32, the other
+# envs compute in float64.
+STATE_RTOL = {
+    "lerax_like/CartPole-v1": 1e-12,
+    "lerax_like/Pendulum-v1": 1e-12,
+    "lerax_like/Acrobot-v1": 1e-12,
+    "lerax_like/MountainCar-v0": 1e-12,
+    "lerax_like/MountainCarContinuous-v0": 1e-6,
+}
+
+
 @pytest.fixture
 def getkey():
     """A fresh PRNG key on each call, from a fixed seed: keys are never reused."""
@@ -51,7 +63,7 @@ def getkey():
     return lambda: next(keys)
 
 
-__all__ = ["jnp", "relative_error", "tree_allclose"]
+__all__ = ["STATE_RTOL", "jnp", "relative_error", "tree_allclose"]
 
 
 def pytest_collection_modifyitems(config, items):

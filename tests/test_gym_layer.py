@@ -14,6 +14,7 @@ from gymnasium.utils.env_checker import check_env
 
 import lerax_like
 from lerax_like.gym import SPECS
+from conftest import STATE_RTOL
 
 
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")  # check_env also opens the "human" mode
@@ -41,16 +42,6 @@ def test_import_registers_all_five_ids():
 def reference_id(env_id: str) -> str:
     return SPECS[env_id].name
 
-
-# Relative tolerance of the next state. Gymnasium's MountainCarContinuous stores its state
-# in float32; the others compute in float64.
-STATE_RTOL = {
-    "lerax_like/CartPole-v1": 1e-12,
-    "lerax_like/Pendulum-v1": 1e-12,
-    "lerax_like/Acrobot-v1": 1e-12,
-    "lerax_like/MountainCar-v0": 1e-12,
-    "lerax_like/MountainCarContinuous-v0": 1e-6,
-}
 
 
 def _sign(x: float) -> int:

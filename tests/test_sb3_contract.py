@@ -21,22 +21,13 @@ from stable_baselines3.common.env_util import make_vec_env as sb3_make_vec_env  
 from stable_baselines3.common.monitor import Monitor  # noqa: E402
 from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor  # noqa: E402
 
+from conftest import STATE_RTOL  # noqa: E402
 from lerax_like.sb3 import CompiledVecEnv, make_vec_env  # noqa: E402
 
 
 os.environ["SDL_VIDEODRIVER"] = "dummy"  # human rendering opens its window on no screen
 ALL_IDS = tuple(SPECS)
 NUM_ENVS = 3
-
-# Relative tolerance of the state against Gymnasium's (as in test_gym_layer): Gymnasium's
-# MountainCarContinuous keeps its state in float32, the others compute in float64.
-STATE_RTOL = {
-    "lerax_like/CartPole-v1": 1e-12,
-    "lerax_like/Pendulum-v1": 1e-12,
-    "lerax_like/Acrobot-v1": 1e-12,
-    "lerax_like/MountainCar-v0": 1e-12,
-    "lerax_like/MountainCarContinuous-v0": 1e-6,
-}
 
 # A physical attribute per id and a value within its range that changes the motion.
 # Gymnasium's CartPole caches quantities derived from its masses at construction (stale
