@@ -142,6 +142,12 @@ def _bound(options: dict[str, Any], name: str, default: float) -> float:
     return value
 
 
+def _within(low: np.ndarray, high: np.ndarray, unit: np.ndarray) -> np.ndarray:
+    """Uniform draws `unit` (shape `(n, num_envs)`) mapped into the bounds, as
+    `np_random.uniform(low, high)` maps them: `low + (high - low) * unit`, the same numbers."""
+    return low[:, None] + (high - low)[:, None] * unit
+
+
 @dataclasses.dataclass(frozen=True)
 class GymSpec:
     """One registered id: `lerax_like/<name>` stands in for Gymnasium's `<name>`."""
@@ -182,7 +188,7 @@ class GymSpec:
         """
         low, high = bounds
         if self._uniform_start(bounds, options):
-            return low[:, None] + (high - low)[:, None] * np_random.random((low.size, num_envs))
+            return _within(low, high, np_random.random((low.size, num_envs)))
         drawn = low != high
         state = np.repeat(low[:, None], num_envs, axis=1)
         low, high = low[drawn], high[drawn]
@@ -204,7 +210,7 @@ class GymSpec:
         if drawn.sum() == 1:  # one value per env, as Gymnasium's mountain cars draw it
             draws = low + (high - low) * np_random.random((num_envs,))
         else:
-            draws = low[:, None] + (high - low)[:, None] * np_random.random((low.size, num_envs))
+            draws = _within(low, high, np_random.random((low.size, num_envs)))
         if self.declared.float32_start:
             draws = draws.astype(np.float32)
         state[drawn] = np.reshape(draws, (-1, num_envs))
@@ -220,7 +226,7 @@ class GymSpec:
         low, high = bounds
         if all(option is None for option in options) and self._uniform_start(bounds, None):
             unit = np.concatenate([generator.random((low.size, 1)) for generator in generators], axis=1)
-            return low[:, None] + (high - low)[:, None] * unit
+            return _within(low, high, unit)
         columns = [self.initial_state(bounds, generator, option, 1) for generator, option in zip(generators, options)]
         return np.concatenate(columns, axis=1)
 
