@@ -1,6 +1,7 @@
 """Tests run in float64 with strict dtype promotion, as diffrax's own suite does."""
 
 import functools
+import gc
 import importlib
 import os
 import pathlib
@@ -61,6 +62,22 @@ def getkey():
     """A fresh PRNG key on each call, from a fixed seed: keys are never reused."""
     keys = iter(jax.random.split(jax.random.key(0), 10_000))
     return lambda: next(keys)
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _release_compiled_programs():
+    """Drop JAX's compiled programs when a module's tests are done.
+
+    Each program XLA compiles for the CPU keeps memory mappings, and a test process keeps
+    every program until it exits. One worker runs about half the suite, which is more than
+    60,000 mappings: past Linux's `vm.max_map_count` (65,530) the next compile fails, a
+    segfault or an abort inside XLA, and pytest-xdist hangs after replacing the worker. A
+    module's programs are rarely reused by another, so the suite loses little by dropping
+    them (measured: a worker stays under 20,000 mappings).
+    """
+    yield
+    jax.clear_caches()
+    gc.collect()
 
 
 __all__ = ["STATE_RTOL", "jnp", "relative_error", "tree_allclose"]
