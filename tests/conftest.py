@@ -73,7 +73,7 @@ def _release_compiled_programs():
     60,000 mappings: past Linux's `vm.max_map_count` (65,530) the next compile fails, a
     segfault or an abort inside XLA, and pytest-xdist hangs after replacing the worker. A
     module's programs are rarely reused by another, so the suite loses little by dropping
-    them (measured: a worker stays under 20,000 mappings).
+    them: measured, a worker now stays under 2,200 mappings (the suite took 1530 s, as before).
     """
     yield
     jax.clear_caches()
