@@ -69,8 +69,8 @@ def _compare_jit_with_filter_jit(env, key):
     assert bool(plain[-1]["solver_ok"])
 
 
-# Compiling is what costs here: all 156 pairs of scene and preset took about 350 s of the
-# suite's time. The leaf test above covers every pair; the pairs compiled cover every scene
+# Compiling is what costs here: all 169 pairs of scene and preset (the test scene included)
+# took about 350 s of one worker's time. The leaf test above covers every pair; the pairs compiled cover every scene
 # with an adaptive explicit preset, an implicit one and semi-implicit Euler (whose refusal
 # depends on the scene), and every preset on a scene with located impacts and on one with a
 # discrete action.
