@@ -257,46 +257,82 @@ def test_gymnasium_make_vec_renders_every_mode(env_id, mode):
     if mode == "human":  # the window shows our envs (before Gymnasium's human envs take the display)
         np.testing.assert_array_equal(_display_pixels(), _tiled([ours.frame(index) for index in range(3)]))
         ours.close()
-    reference = gymnasium.make_vec(SPECS[env_id].name, 3, render_mode=mode, vectorization_mode="sync")
-    assert ours.render_mode == reference.render_mode == mode
+    # The reference: Gymnasium's SyncVectorEnv; in rgb_array_list, Gymnasium's own vector
+    # env where its id has one (CartPole: one array per env, as its vector wrappers take
+    # them), else its rgb_array envs.
+    name = SPECS[env_id].name
+    reference_mode, vectorization_mode = mode, "sync"
+    if mode == "rgb_array_list":
+        if gymnasium.spec(name).vector_entry_point is not None:
+            vectorization_mode = "vector_entry_point"
+        else:
+            reference_mode = "rgb_array"
+    reference = gymnasium.make_vec(name, 3, render_mode=reference_mode, vectorization_mode=vectorization_mode)
+    assert ours.render_mode == mode and reference.render_mode == reference_mode
     reference.reset(seed=0)
     for action in actions(reference, steps, seed=2):
         reference.step(action)
     ref_frames = reference.render()
-    assert type(frames) is type(ref_frames) or mode == "rgb_array"
+    assert type(frames) is type(ref_frames) or mode != "human"
     assert len(frames) == len(ref_frames) == 3
     if mode == "human":
         assert frames == ref_frames == (None,) * 3
-    elif mode == "rgb_array":
+    else:
         for index, (frame, ref_frame) in enumerate(zip(frames, ref_frames, strict=True)):
+            assert isinstance(frame, np.ndarray)
             assert frame.shape == ref_frame.shape and frame.dtype == ref_frame.dtype
             np.testing.assert_array_equal(frame, ours.frame(index))
-    else:
-        # Each env's frames since its reset (the reset's and one per step), then none.
-        assert [len(each) for each in frames] == [len(each) for each in ref_frames] == [1 + steps] * 3
-        for index, each in enumerate(frames):
-            assert each[0].shape == ref_frames[index][0].shape
-            np.testing.assert_array_equal(each[-1], ours.frame(index))
-        assert [len(each) for each in ours.render()] == [len(each) for each in reference.render()] == [0] * 3
     ours.close(), reference.close()
 
 
-def test_rgb_array_list_restarts_an_envs_frames_with_its_episode():
-    # RenderCollection clears an env's frames at its reset: an env that restarts keeps only the fresh one.
+def test_human_rendering_over_an_rgb_array_list_vector_env():
+    # Gymnasium's own test (tests/wrappers/vector/test_human_rendering.py::test_render_modes)
+    # over our id: its HumanRendering takes one array per env from `render`.
+    pytest.importorskip("pygame")
+    pytest.importorskip("cv2", reason="Gymnasium's HumanRendering resizes with OpenCV (the test extra has it)")
+    from gymnasium.wrappers.vector import HumanRendering
+
+    envs = HumanRendering(gymnasium.make_vec("lerax_like/CartPole-v1", num_envs=3, render_mode="rgb_array_list"))
+    assert envs.render_mode == "human"
+    envs.reset(seed=0)
+    for _ in range(25):
+        envs.step(envs.action_space.sample())
+    # The window holds the three envs' frames, tiled as the wrapper tiles them (two by two here).
+    frames = envs.env.render()
+    window = _display_pixels()
+    height, width = frames[0].shape[:2]
+    assert window.shape == (height, width, 3)
+    assert np.any(window != window[0, 0])  # drawn, not a blank window
+    envs.close()
+    # HumanRendering on a human env is refused, as over Gymnasium's.
+    with pytest.raises((AssertionError, ValueError), match=r"Expected env.render_mode to be one of .* but got 'human'"):
+        HumanRendering(envs)
+
+
+def test_sync_vector_env_of_our_envs_collects_each_envs_frames():
+    # `vectorization_mode="sync"`: `gymnasium.make`'s single envs, each with RenderCollection,
+    # which clears an env's frames at its reset: an env that restarts keeps only the fresh one.
     env_id = "lerax_like/CartPole-v1"
     for mode in (gymnasium.vector.AutoresetMode.NEXT_STEP, gymnasium.vector.AutoresetMode.SAME_STEP):
-        ours = gymnasium.make_vec(env_id, 2, render_mode="rgb_array_list", max_episode_steps=2, autoreset_mode=mode)
-        reference = gymnasium.make_vec(
-            SPECS[env_id].name, 2, render_mode="rgb_array_list", vectorization_mode="sync",
-            vector_kwargs={"autoreset_mode": mode}, max_episode_steps=2,
+        ours, reference = (
+            gymnasium.make_vec(
+                each, 2, render_mode="rgb_array_list", vectorization_mode="sync",
+                vector_kwargs={"autoreset_mode": mode}, max_episode_steps=2,
+            )
+            for each in (env_id, SPECS[env_id].name)
         )
         ours.reset(seed=0), reference.reset(seed=0)
         lengths, ref_lengths = [], []
         for _ in range(4):
             ours.step(np.array([0, 1])), reference.step(np.array([0, 1]))
-            lengths.append([len(each) for each in ours.render()])
-            ref_lengths.append([len(each) for each in reference.render()])
+            frames, ref_frames = ours.render(), reference.render()
+            lengths.append([len(each) for each in frames])
+            ref_lengths.append([len(each) for each in ref_frames])
+            for each, ref_each in zip(frames, ref_frames, strict=True):
+                for frame, ref_frame in zip(each, ref_each, strict=True):
+                    np.testing.assert_array_equal(frame, ref_frame)
         assert lengths == ref_lengths, mode
+        ours.close(), reference.close()
 
 
 def test_per_env_parameters_in_float32_and_through_pickle():

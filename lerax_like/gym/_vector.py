@@ -97,7 +97,6 @@ class GymnasiumVectorEnv(VectorEnv):
         self.render_mode = render_mode
         self._renderer = None
         self._window = None  # the human mode's
-        self._frame_lists: list[list[np.ndarray]] = [[] for _ in range(num_envs)]  # rgb_array_list's
         self._options: dict[str, Any] | None = None
         self._ended = np.zeros(num_envs, dtype=np.bool_)  # the envs whose episode ended at the last step
         self.last_action: np.ndarray | None = None  # what the renderer draws (Pendulum's torque)
@@ -172,7 +171,7 @@ class GymnasiumVectorEnv(VectorEnv):
         observation = self.batch.reset(self.starts(self.np_random, options, self.num_envs))
         self._ended = np.zeros(self.num_envs, dtype=np.bool_)
         self.last_action = None
-        self._rendered(None)
+        self._shown()
         return observation, {}
 
     def _reset_masked(self, options: dict[str, Any]) -> np.ndarray:
@@ -192,7 +191,7 @@ class GymnasiumVectorEnv(VectorEnv):
         starts = self.starts(self.np_random, self._options, int(np.count_nonzero(mask)))
         self._ended = self._ended & ~mask
         observation = self.batch.restart(mask, starts)
-        self._rendered(mask)
+        self._shown()
         return observation
 
     def step(self, actions):
@@ -232,9 +231,7 @@ class GymnasiumVectorEnv(VectorEnv):
             mask = None if ended.all() else ~ended
             starts = self.starts(self.np_random, self._options, int(np.count_nonzero(ended)))
             observation = self.batch.restart(ended, starts)
-        if self.render_mode in ("human", "rgb_array_list"):
-            restarted = self._ended if mode is AutoresetMode.SAME_STEP else restarts
-            self._rendered(np.zeros(self.num_envs, dtype=np.bool_) if restarted is None else restarted)
+        self._shown()
         return observation, outcome.reward, outcome.terminated, outcome.truncated, {**self._info(outcome, mask), **info}
 
     def _info(self, outcome: Outcome, mask: np.ndarray | None) -> dict[str, np.ndarray]:
@@ -276,27 +273,23 @@ class GymnasiumVectorEnv(VectorEnv):
             self._window = _render.HumanWindow(self.metadata["render_fps"])
         self._window.show(_render.tile(self._frames()))
 
-    def _rendered(self, restarted: np.ndarray | None) -> None:
-        """What the render modes that draw by themselves do after a reset or step (`restarted`:
-        the envs that restarted, None for all): `human` shows every env, tiled in one window,
-        as each of `SyncVectorEnv`'s human envs draws itself; `rgb_array_list` keeps each env's
-        frames since its last reset, as `RenderCollection` does for each env."""
+    def _shown(self) -> None:
+        """`human`: every reset and step shows every env, tiled in one window, as each of
+        `SyncVectorEnv`'s human envs draws itself."""
         if self.render_mode == "human":
             self.show()
-        elif self.render_mode == "rgb_array_list":
-            frames = self._frames()
-            if restarted is None:
-                self._frame_lists = [[frame] for frame in frames]
-                return
-            for index, frame in enumerate(frames):
-                if restarted[index]:
-                    self._frame_lists[index] = [frame]
-                else:
-                    self._frame_lists[index].append(frame)
 
     def render(self):
-        """`rgb_array`: each env's frame; `rgb_array_list`: each env's frames since the last
-        `render` or its reset (then emptied); `human`: one None per env, as every reset and step shows the envs."""
+        """One frame per env (an RGB array each) in `rgb_array` and `rgb_array_list`; in `human`,
+        one None per env, as every reset and step shows the envs.
+
+        `rgb_array_list` returns the envs' current frames, as Gymnasium's own vector CartPole
+        does (`gymnasium.make_vec("CartPole-v1", n, render_mode="rgb_array_list")`), since
+        Gymnasium's vector wrappers (`HumanRendering`, `RecordVideo`) take one array per env
+        from `render` in every image mode. Each env's frames since its reset, as
+        `RenderCollection` keeps them, come from `vectorization_mode="sync"`, whose envs are
+        `gymnasium.make`'s single envs (and which `HumanRendering` refuses for that reason).
+        """
         if self.render_mode is None:
             gymnasium.logger.warn(
                 "You are calling render method without specifying any render mode. "
@@ -306,9 +299,6 @@ class GymnasiumVectorEnv(VectorEnv):
             return None
         if self.render_mode == "human":
             return (None,) * self.num_envs
-        if self.render_mode == "rgb_array_list":
-            frames, self._frame_lists = self._frame_lists, [[] for _ in range(self.num_envs)]
-            return tuple(frames)
         return self._frames()
 
     def close_extras(self, **kwargs: Any) -> None:
