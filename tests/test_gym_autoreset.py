@@ -24,7 +24,8 @@ import lerax_like  # noqa: F401  (registers the ids)
 from lerax_like.gym import SPECS
 
 
-ALL_IDS = tuple(SPECS)
+# The ids standing for Gymnasium's envs, tested against them (the others: tests/test_render.py).
+ALL_IDS = tuple(env_id for env_id, spec in SPECS.items() if spec.stands_for_gymnasium)
 MODES = (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP, AutoresetMode.DISABLED)
 NUM_ENVS = 3
 TIME_LIMIT = 6

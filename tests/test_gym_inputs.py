@@ -20,8 +20,9 @@ import lerax_like
 from lerax_like.gym import SPECS
 
 
-ALL_IDS = tuple(SPECS)
-CONTINUOUS_IDS = tuple(env_id for env_id, spec in SPECS.items() if isinstance(spec.scene().action_space, lerax_like.Box))
+# The ids standing for Gymnasium's envs, tested against them (the others: tests/test_render.py).
+ALL_IDS = tuple(env_id for env_id, spec in SPECS.items() if spec.stands_for_gymnasium)
+CONTINUOUS_IDS = tuple(env_id for env_id in ALL_IDS if isinstance(SPECS[env_id].scene().action_space, lerax_like.Box))
 NON_FINITE = (np.nan, np.inf, -np.inf)
 
 

@@ -15,7 +15,8 @@ import lerax_like  # noqa: F401  (registers the ids)
 from lerax_like.gym import SPECS
 
 
-ALL_IDS = tuple(SPECS)
+# The ids standing for Gymnasium's envs, tested against them (the others: tests/test_render.py).
+ALL_IDS = tuple(env_id for env_id, spec in SPECS.items() if spec.stands_for_gymnasium)
 
 
 def _vector(env_id, num_envs, **kwargs):

@@ -1,7 +1,7 @@
 """The Gymnasium layer: `gymnasium.make("lerax_like/CartPole-v1")` and friends.
 
 The only part of the package that imports gymnasium. On `import lerax_like` the ids of
-`SPECS` (the scenes of `GYMNASIUM_SPECS`) are registered, with string entry points naming the classes
+`SPECS` (every scene of `lerax_like.SCENES`) are registered, with string entry points naming the classes
 of `lerax_like.gym.envs` (one `GymnasiumEnv` and one `GymnasiumVectorEnv` subclass per
 id: `CartPoleEnv` behind `gymnasium.make`, `CartPoleVectorEnv` behind
 `gymnasium.make_vec(..., vectorization_mode="vector_entry_point")`).
@@ -10,6 +10,12 @@ id: `CartPoleEnv` behind `gymnasium.make`, `CartPoleVectorEnv` behind
 from ._batch import Batch as Batch, Outcome as Outcome
 from ._env import GymnasiumEnv as GymnasiumEnv
 from ._registration import register_envs as register_envs
+from ._canvas import Canvas as Canvas
+from ._renderers import (
+    RENDERERS as RENDERERS,
+    register_renderer as register_renderer,
+    render_frame as render_frame,
+)
 from ._specs import (
     GYMNASIUM_SPECS as GYMNASIUM_SPECS,
     GymnasiumSpec as GymnasiumSpec,

@@ -151,7 +151,7 @@ class GymnasiumEnv(gymnasium.Env):
             return None
         if self._renderer is None:
             self._renderer = _render.make_renderer(self._gym_spec, self.render_mode)
-        return _render.draw(self._renderer, self._gym_spec, self.scene, self._state, self._last_action)
+        return self._renderer.draw(self.scene, self._state, self._last_action)
 
     def close(self) -> None:
         if self._renderer is not None:

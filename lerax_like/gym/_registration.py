@@ -6,7 +6,7 @@ from ._specs import SPECS
 
 
 def register_envs() -> tuple[str, ...]:
-    """Register every id of `SPECS` (every scene with a `GymnasiumSpec`); return the ids now registered.
+    """Register every id of `SPECS` (one per scene of `lerax_like.SCENES`); return the ids now registered.
 
     The entry points are strings naming the classes of `lerax_like.gym.envs`, as Gymnasium's
     own ids do. Called on `import lerax_like`. Idempotent: ids already in Gymnasium's

@@ -1,11 +1,15 @@
-"""Rendering through Gymnasium's own classic-control renderers.
+"""Rendering: Gymnasium's own classic-control renderers, or lerax_like's pictures.
 
-Each id's renderer is an instance of Gymnasium's env class, used only to draw: before
-each frame its state and drawing parameters (track width, pole length, link lengths,
-hill bounds) are copied from our scene (`GymSpec.render_sync`). pygame is optional
-(the `render` extra), imported only when a frame is drawn.
+A scene standing for a Gymnasium env is drawn by an instance of Gymnasium's env class,
+used only to draw: before each frame its state and drawing parameters (track width, pole
+length, link lengths, hill bounds) are copied from our scene (`GymSpec.render_sync`), so
+that its frames are Gymnasium's, pixel for pixel; pygame (the `render` extra) draws them,
+as for Gymnasium. Every other scene is drawn by its renderer of `RENDERERS` with NumPy
+alone: its `rgb_array` needs no pygame, and `human` shows the frames in a pygame window.
+pygame is imported only when it is needed.
 """
 
+import dataclasses
 import importlib
 from typing import Any
 
@@ -13,6 +17,7 @@ import numpy as np
 from gymnasium.error import DependencyNotInstalled
 
 from ._compiled import float64
+from ._renderers import render_frame
 from ._specs import GymSpec
 
 
@@ -31,18 +36,53 @@ def _renderer_class(spec: GymSpec) -> type:
 
 
 def render_fps(spec: GymSpec) -> int:
-    return _renderer_class(spec).metadata["render_fps"]
+    """Gymnasium's frame rate for its envs; real time (one frame per default `dt`) for the others."""
+    if spec.renderer is not None:
+        return _renderer_class(spec).metadata["render_fps"]
+    dt = {field.name: field.default for field in dataclasses.fields(spec.scene)}["dt"]
+    return max(1, round(1 / float(dt)))
 
 
-def make_renderer(spec: GymSpec, render_mode: str) -> Any:
-    require_pygame()
-    return _renderer_class(spec)(render_mode=render_mode)
+class GymnasiumRenderer:
+    """Gymnasium's env class of the id, used only to draw (`render_mode` its own)."""
+
+    def __init__(self, spec: GymSpec, render_mode: str):
+        require_pygame()
+        self._spec = spec
+        self._env = _renderer_class(spec)(render_mode=render_mode)
+
+    def draw(self, scene: Any, state: np.ndarray, action: np.ndarray | None):
+        with float64():
+            self._spec.render_sync(self._env, scene, np.array(state, dtype=np.float64), action)
+        return self._env.render()
+
+    def close(self) -> None:
+        self._env.close()
 
 
-def draw(renderer: Any, spec: GymSpec, scene: Any, state: np.ndarray, action: np.ndarray | None):
-    with float64():
-        spec.render_sync(renderer, scene, np.array(state, dtype=np.float64), action)
-    return renderer.render()
+class SceneRenderer:
+    """lerax_like's picture of a scene (`render_frame`): returned in `rgb_array`, shown in
+    a window in `human` (which returns None, as Gymnasium's human renderers do)."""
+
+    def __init__(self, render_mode: str, fps: int):
+        self._window = HumanWindow(fps) if render_mode == "human" else None
+
+    def draw(self, scene: Any, state: np.ndarray, action: np.ndarray | None):
+        frame = render_frame(scene, state, action)
+        if self._window is None:
+            return frame
+        self._window.show(frame)
+        return None
+
+    def close(self) -> None:
+        if self._window is not None:
+            self._window.close()
+
+
+def make_renderer(spec: GymSpec, render_mode: str) -> GymnasiumRenderer | SceneRenderer:
+    if spec.renderer is not None:
+        return GymnasiumRenderer(spec, render_mode)
+    return SceneRenderer(render_mode, render_fps(spec))
 
 
 def tile(frames: list[np.ndarray]) -> np.ndarray:
@@ -90,4 +130,4 @@ class HumanWindow:
             self._window = None
 
 
-__all__ = ["HumanWindow", "draw", "make_renderer", "render_fps", "require_pygame", "tile"]
+__all__ = ["GymnasiumRenderer", "HumanWindow", "SceneRenderer", "make_renderer", "render_fps", "require_pygame", "tile"]

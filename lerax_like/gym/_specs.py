@@ -1,12 +1,14 @@
 """What the Gymnasium layer knows of each registered id: a table keyed by scene class.
 
-A scene that stands for a Gymnasium env has a `GymnasiumSpec` in `GYMNASIUM_SPECS`
-(`CartPole: GymnasiumSpec("CartPole-v1", ...)`), and is registered as
-`lerax_like/<name>`. The scenes themselves know nothing of Gymnasium: its names
-(`masspole`), renderers and start conventions live here. The start is drawn from the
-scene's own `initial_bounds`, with NumPy in the order of Gymnasium's calls, so that a
-seed gives Gymnasium's start; the renderer is Gymnasium's env class, fed the scene's
-state and the attributes the spec maps.
+Every scene of `lerax_like.SCENES` (when `lerax_like` is imported) is registered as
+`lerax_like/<name>`. A scene that stands for a Gymnasium env has a `GymnasiumSpec` in
+`GYMNASIUM_SPECS` (`CartPole: GymnasiumSpec("CartPole-v1", ...)`), and its id is
+Gymnasium's name; the others are `lerax_like/<scene class>-v0`, with the scene's own
+episode length. The scenes themselves know nothing of Gymnasium: its names (`masspole`),
+renderers and start conventions live here. The start is drawn from the scene's own
+`initial_bounds`, with NumPy in the order of Gymnasium's calls, so that a seed gives
+Gymnasium's start; the renderer is Gymnasium's env class, fed the scene's state and the
+attributes the spec maps, or for the other scenes lerax_like's own (`RENDERERS`).
 """
 
 import dataclasses
@@ -26,7 +28,8 @@ class GymnasiumSpec:
     """What registers a scene as `lerax_like/<name>` in Gymnasium, standing in for Gymnasium's `<name>`.
 
     - `name`: Gymnasium's id (`"CartPole-v1"`); `max_episode_steps`, `reward_threshold`: Gymnasium's.
-    - `renderer`: the Gymnasium env class (`"module:Class"`) whose `render` draws the scene.
+    - `renderer`: the Gymnasium env class (`"module:Class"`) whose `render` draws the scene;
+      None for lerax_like's own picture of it (`lerax_like.gym.RENDERERS`).
     - `attributes`: Gymnasium's attribute names on its env and the scene's path for each
       (`("masspole", "dynamics.pole_mass")`; a name listed twice when Gymnasium's one
       attribute is several parameters, as Acrobot's `LINK_MOI`). The renderer reads them,
@@ -40,9 +43,9 @@ class GymnasiumSpec:
     """
 
     name: str
-    max_episode_steps: int
+    max_episode_steps: int | None
     reward_threshold: float | None
-    renderer: str
+    renderer: str | None = None
     attributes: tuple[tuple[str, str], ...] = ()
     reset_options: Literal["bounds", "pendulum"] = "bounds"
     float32_start: bool = False
@@ -148,15 +151,31 @@ def _within(low: np.ndarray, high: np.ndarray, unit: np.ndarray) -> np.ndarray:
     return low[:, None] + (high - low)[:, None] * unit
 
 
+def _own_spec(scene: type[AbstractEnv]) -> GymnasiumSpec:
+    """The id of a scene that stands for no Gymnasium env: `<scene class>-v0`, its
+    episode length the scene's default, drawn by lerax_like's own renderer."""
+    defaults = {field.name: field.default for field in dataclasses.fields(scene)}
+    return GymnasiumSpec(
+        name=f"{scene.__name__}-v0", max_episode_steps=defaults.get("max_episode_steps"), reward_threshold=None
+    )
+
+
 @dataclasses.dataclass(frozen=True)
 class GymSpec:
-    """One registered id: `lerax_like/<name>` stands in for Gymnasium's `<name>`."""
+    """One registered id: `lerax_like/<name>`, standing in for Gymnasium's `<name>` where
+    `stands_for_gymnasium`."""
 
     scene: type[AbstractEnv]
 
     @property
     def declared(self) -> GymnasiumSpec:
-        return GYMNASIUM_SPECS[self.scene]
+        declared = GYMNASIUM_SPECS.get(self.scene)
+        return _own_spec(self.scene) if declared is None else declared
+
+    @property
+    def stands_for_gymnasium(self) -> bool:
+        """Whether the id stands for Gymnasium's env of the same name (and is tested against it)."""
+        return self.scene in GYMNASIUM_SPECS
 
     @property
     def name(self) -> str:
@@ -167,7 +186,7 @@ class GymSpec:
         return f"lerax_like/{self.name}"
 
     @property
-    def max_episode_steps(self) -> int:
+    def max_episode_steps(self) -> int | None:
         return self.declared.max_episode_steps
 
     @property
@@ -175,7 +194,7 @@ class GymSpec:
         return self.declared.reward_threshold
 
     @property
-    def renderer(self) -> str:
+    def renderer(self) -> str | None:
         return self.declared.renderer
 
     def initial_state(self, bounds, np_random, options: dict[str, Any] | None, num_envs: int) -> np.ndarray:
@@ -252,5 +271,7 @@ class GymSpec:
         renderer.last_u = None if action is None else float(np.asarray(scene.physical_input(action))[0])
 
 
-SPECS: dict[str, GymSpec] = {spec.id: spec for spec in (GymSpec(scene) for scene in GYMNASIUM_SPECS)}
-"""All ids the layer registers, by id."""
+_SCENES_WITH_IDS = (*GYMNASIUM_SPECS, *(scene for scene in SCENES.values() if scene not in GYMNASIUM_SPECS))
+SPECS: dict[str, GymSpec] = {spec.id: spec for spec in (GymSpec(scene) for scene in _SCENES_WITH_IDS)}
+"""All ids the layer registers, by id: one per scene of `SCENES` (those standing for
+Gymnasium's envs first)."""

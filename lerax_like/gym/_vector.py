@@ -255,14 +255,15 @@ class GymnasiumVectorEnv(VectorEnv):
     # -- rendering: each mode as Gymnasium's `SyncVectorEnv` of envs made with it ----------
 
     def frame(self, index: int) -> np.ndarray:
-        """Env `index`'s picture (an RGB array), drawn by Gymnasium's renderer from its state and scene."""
+        """Env `index`'s picture (an RGB array), drawn from its state and scene (by Gymnasium's
+        renderer for an id standing for Gymnasium's env)."""
         states = self.state
         if states is None:
             raise ValueError("the state is None: call reset before render")
         if self._renderer is None:
             self._renderer = _render.make_renderer(self._gym_spec, "rgb_array")
         action = None if self.last_action is None else self.last_action[index]
-        return _render.draw(self._renderer, self._gym_spec, self.batch.scene_at(index), states[:, index], action)
+        return self._renderer.draw(self.batch.scene_at(index), states[:, index], action)
 
     def _frames(self) -> list[np.ndarray]:
         return [self.frame(index) for index in range(self.num_envs)]

@@ -8,8 +8,8 @@ Gymnasium's machinery expects: the spec serialises (`EnvSpec.to_json`), compares
 after `make`, and pickles; and the class's `metadata` is what `gymnasium.make` reads to add
 `RenderCollection` for `render_mode="rgb_array_list"` or `HumanRendering`.
 
-The classes are generated from `SPECS` (every scene of `lerax_like.SCENES` that declares a
-`GymnasiumSpec`), named after the scene. Each also has Gymnasium's attributes of its env
+The classes are generated from `SPECS` (every scene of `lerax_like.SCENES`), named after
+the scene. Each also has Gymnasium's attributes of its env
 (`gravity`, `masscart`, `length`, `tau`, `x_threshold` on CartPole; `g`, `m`, `l`,
 `max_speed` on Pendulum; ...: `GymnasiumSpec.attributes`) as properties. Reading one gives
 the scene's parameter; writing one replaces that leaf of the scene (`eqx.tree_at`), checked
@@ -73,10 +73,13 @@ def _env_classes(spec: GymSpec) -> tuple[type, type]:
     for gymnasium_name, path in spec.declared.attributes:  # a name may map to several paths
         paths[gymnasium_name] = (*paths.get(gymnasium_name, ()), path)
     attributes = {gymnasium_name: _attribute(gymnasium_name, each) for gymnasium_name, each in paths.items()}
-    doc = (
-        f"`gymnasium.make({spec.id!r})`: `lerax_like.{name}` behind Gymnasium's `{spec.name}` "
-        f"(see `GymnasiumEnv`), with Gymnasium's attributes {', '.join(attributes) or 'none'}."
-    )
+    if spec.stands_for_gymnasium:
+        doc = (
+            f"`gymnasium.make({spec.id!r})`: `lerax_like.{name}` behind Gymnasium's `{spec.name}` "
+            f"(see `GymnasiumEnv`), with Gymnasium's attributes {', '.join(attributes) or 'none'}."
+        )
+    else:
+        doc = f"`gymnasium.make({spec.id!r})`: `lerax_like.{name}` as a Gymnasium env (see `GymnasiumEnv`)."
 
     def __init__(self, render_mode: str | None = None, **scene_kwargs: Any):
         GymnasiumEnv.__init__(self, spec, render_mode=render_mode, **scene_kwargs)

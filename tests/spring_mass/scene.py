@@ -4,6 +4,7 @@ from typing import ClassVar, final
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 import lerax_like as ll
 from lerax_like import NONNEGATIVE, POSITIVE, EnvState, parameter
@@ -70,3 +71,20 @@ class SpringMass(ll.AbstractUnitActionEnv):
     @property
     def worst_reward(self) -> jax.Array:
         return -(_ERROR_CAP**2) - self.action_cost
+
+
+@ll.gym.register_renderer(SpringMass)
+def draw_spring_mass(scene: SpringMass, state, action):
+    """Its picture (`lerax_like.gym.render_frame`, `render_mode="rgb_array"`): a block on a
+    spring from a wall at 2 m to its left, its rest position marked."""
+    canvas = ll.gym.Canvas((-2.5, 2.5), (-1.0, 1.0))
+    x = float(state[0])
+    canvas.segment((-2.0, -0.5), (-2.0, 0.5), 4.0, (0, 0, 0))
+    canvas.segment((-2.5, -0.25), (2.5, -0.25), 2.0, (0, 0, 0))
+    canvas.segment((0.0, -0.35), (0.0, -0.15), 2.0, (44, 160, 44))
+    coils = np.linspace(-2.0, x - 0.25, 13)
+    heights = 0.15 * np.resize([0.0, 1.0, 0.0, -1.0], coils.size)
+    for a, b in zip(zip(coils[:-1], heights[:-1]), zip(coils[1:], heights[1:])):
+        canvas.segment(a, b, 2.0, (120, 120, 120))
+    canvas.rectangle((x - 0.25, -0.25), (x + 0.25, 0.25), (129, 132, 203))
+    return canvas.image()
