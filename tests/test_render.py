@@ -7,6 +7,7 @@ the ball moves), not against stored frames; the ids with Gymnasium's own `check_
 """
 
 import os
+import pathlib
 
 import gymnasium
 import numpy as np
@@ -84,6 +85,55 @@ def test_the_ball_moves_in_its_picture_as_it_moves():
     scale = (c2 - c0) / 0.5
     assert scale > 50 and abs((c1 - c0) - 0.25 * scale) < 0.5 and abs(r1 - r0) < 0.5
     assert abs((r0 - r3) - 0.5 * scale) < 0.5 and abs(c3 - c0) < 0.5  # rows grow downwards
+
+
+def _direction(frame: np.ndarray, colour, pivot) -> float:
+    """The angle (degrees, clockwise from up) from `pivot` (column, row) to the centroid of `colour`'s pixels."""
+    rows, columns = colour_pixels(frame, colour)
+    return float(np.degrees(np.arctan2(columns.mean() - pivot[0], pivot[1] - rows.mean())))
+
+
+def _centre(frame: np.ndarray, colour=None) -> tuple[float, float]:
+    if colour is None:
+        return frame.shape[1] / 2, frame.shape[0] / 2
+    rows, columns = colour_pixels(frame, colour)
+    return columns.mean() + 0.5, rows.mean() + 0.5
+
+
+# Gymnasium's own pictures: the rods' colour and where the pivot is (the axle's colour, or the middle).
+GYMNASIUMS_RODS = {
+    "CartPole": ((202, 152, 101), (129, 132, 203), [np.array([0.3, 0.0, 0.5, 0.0]), np.array([-0.5, 0.0, -1.2, 0.0])]),
+    "Pendulum": ((204, 77, 77), None, [np.array([0.6, 0.0]), np.array([-2.3, 0.0])]),
+    "Acrobot": ((0, 204, 204), None, [np.array([0.7, 0.9, 0.0, 0.0]), np.array([-2.0, 0.5, 0.0, 0.0])]),
+}
+
+
+@pytest.mark.parametrize("name", tuple(GYMNASIUMS_RODS))
+def test_the_classic_scenes_point_their_rods_as_gymnasiums_pictures_do(name):
+    # Our pictures of the scenes standing for Gymnasium's envs against Gymnasium's own, on the
+    # same states: the rods point the same way from their pivot (the sign conventions).
+    pytest.importorskip("pygame")
+    colour, axle, states = GYMNASIUMS_RODS[name]
+    reference = gymnasium.make(SPECS[f"lerax_like/{name}-v1"].name, render_mode="rgb_array").unwrapped
+    reference.reset(seed=0)
+    scene = lerax_like.SCENES[name]()
+    for state in states:
+        reference.state = state.copy()
+        theirs, ours = reference.render(), render_frame(scene, state)
+        expected = _direction(theirs, colour, _centre(theirs, axle))
+        got = _direction(ours, (202, 152, 101), _centre(ours, None if axle is None else (129, 132, 203)))
+        assert abs((got - expected + 180) % 360 - 180) < 3.0, (name, state, got, expected)
+    reference.close()
+
+
+def test_the_documentation_shows_every_scene_of_the_package():
+    # docs/scenes.md shows an animation of every scene of the package (docs/scene_pictures.py writes them).
+    root = pathlib.Path(__file__).resolve().parents[1]
+    page = (root / "docs" / "scenes.md").read_text()
+    for name, scene in lerax_like.SCENES.items():
+        if scene.__module__.startswith("lerax_like."):
+            image = f"images/scenes/{name}.gif"
+            assert f"]({image})" in page and (root / "docs" / image).is_file(), name
 
 
 @pytest.mark.slow
