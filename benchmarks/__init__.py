@@ -108,6 +108,7 @@ BENCHMARKS = {
             "gym_before_after", "the vector env's and the SB3 VecEnv's speed against an older commit's, interleaved",
             (_SB3,),
         ),
+        Benchmark("render", "time per frame of every scene's NumPy picture, beside Gymnasium's pygame pictures"),
         Benchmark(
             "sharded_rollout", "rollouts sharded over devices equal the unsharded run",
             environment=(("XLA_FLAGS", "--xla_force_host_platform_device_count=4"),),

@@ -518,6 +518,23 @@ def jax_rl(folder, link):
     )
 
 
+def render(folder, link):
+    rows = _read_csv(folder, "render.csv")
+    if rows is None:
+        return []
+    first = rows[0]
+    lines = [
+        f"Milliseconds per frame, median call of {first['frames']}-frame blocks, fastest of "
+        f"{first['repeats']} interleaved blocks; load average {first['load_average_before']} before, "
+        f"{first['load_average_after']} after:", "",
+    ]
+    lines += _table(
+        ["scene", "renderer", "ms per frame", "vs Gymnasium's CartPole (pygame)"],
+        [[row["scene"], row["renderer"], _g(row["ms_per_frame"]), _g(row["vs_gymnasium_cartpole"])] for row in rows],
+    )
+    return lines
+
+
 def sharded_rollout(folder, link):
     data = _read_json(folder, "sharded_rollout.json")
     if data is None:
@@ -637,6 +654,7 @@ SECTIONS = {
     "sb3_vector": sb3_vector,
     "gym_before_after": gym_before_after,
     "contact": contact,
+    "render": render,
     "sharded_rollout": sharded_rollout,
 }
 assert set(SECTIONS) == set(BENCHMARKS), "every benchmark needs a section"

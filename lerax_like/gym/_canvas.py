@@ -101,7 +101,21 @@ class Canvas:
             t = np.clip(((x - a[0]) * along[0] + (y - a[1]) * along[1]) / length_squared, 0.0, 1.0)
             return np.hypot(x - a[0] - t * along[0], y - a[1] - t * along[1]) - half
 
-        self._paint(np.minimum(a, b) - half, np.maximum(a, b) + half, distance, colour)
+        # Only the part within the picture is painted: a line drawn to beyond the picture's
+        # edges (a floor, a slope) would otherwise be measured over its whole box.
+        margin = half + 1
+        low_t, high_t = 0.0, 1.0
+        for start, step, limit in ((a[0], along[0], self.width), (a[1], along[1], self.height)):
+            if abs(step) < 1e-12:
+                if not -margin <= start <= limit + margin:
+                    return
+                continue
+            t_0, t_1 = sorted(((-margin - start) / step, (limit + margin - start) / step))
+            low_t, high_t = max(low_t, t_0), min(high_t, t_1)
+        if low_t > high_t:
+            return
+        first, last = a + low_t * along, a + high_t * along
+        self._paint(np.minimum(first, last) - half, np.maximum(first, last) + half, distance, colour)
 
     def rectangle(self, low: Point, high: Point, colour: Colour) -> None:
         """A filled rectangle with sides along the axes, between the corners `low` and `high`."""
@@ -113,7 +127,20 @@ class Canvas:
                 np.maximum(low_pixel[0] - x, x - high_pixel[0]), np.maximum(low_pixel[1] - y, y - high_pixel[1])
             )
 
-        self._paint(low_pixel, high_pixel, distance, colour)
+        if not (np.all(np.isfinite(low_pixel)) and np.all(np.isfinite(high_pixel))):
+            return
+        # The pixels wholly inside are set at once (a wall or the floor fills much of the
+        # picture); only the four edges are blended.
+        column_0, row_0 = np.clip(np.ceil(low_pixel), 0, [self.width, self.height]).astype(int)
+        column_1, row_1 = np.clip(np.floor(high_pixel), 0, [self.width, self.height]).astype(int)
+        self._pixels[row_0:row_1, column_0:column_1] = colour
+        for start, end in (
+            ((low_pixel[0], low_pixel[1]), (low_pixel[0], high_pixel[1])),
+            ((high_pixel[0], low_pixel[1]), (high_pixel[0], high_pixel[1])),
+            ((low_pixel[0], low_pixel[1]), (high_pixel[0], low_pixel[1])),
+            ((low_pixel[0], high_pixel[1]), (high_pixel[0], high_pixel[1])),
+        ):
+            self._paint(np.array(start), np.array(end), distance, colour)
 
     def below(self, point: Point, direction: Point, colour: Colour) -> None:
         """Fill the side of the line through `point` along `direction` (world) that lies

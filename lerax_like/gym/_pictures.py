@@ -140,7 +140,7 @@ def mountain_car(scene: AbstractEnv, state: np.ndarray, action) -> np.ndarray:
     del action
     low, high = value(scene.min_position), value(scene.max_position)
     canvas = Canvas((low, high), (0.0, 1.25))
-    xs = np.linspace(low, high, 60)
+    xs = np.linspace(low, high, 31)
     ys = 0.45 * np.sin(3 * xs) + 0.55
     for a, b in zip(zip(xs[:-1], ys[:-1]), zip(xs[1:], ys[1:])):
         canvas.segment(a, b, 2.0, GROUND)
