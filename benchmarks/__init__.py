@@ -15,6 +15,7 @@ which `benchmarks/RESULTS.md` is generated. `--quick` runs write to `benchmarks/
 """
 
 import argparse
+import csv
 import dataclasses
 import pathlib
 
@@ -51,6 +52,15 @@ def sized_arguments(
         if getattr(arguments, name) is None:
             setattr(arguments, name, small if arguments.quick else large)
     return arguments
+
+
+def write_csv(path: pathlib.Path, rows: list[dict]) -> None:
+    """`rows` (dicts with the same keys) as a CSV file, floats to 6 significant figures."""
+    with open(path, "w", newline="") as file:
+        writer = csv.DictWriter(file, fieldnames=list(rows[0]))
+        writer.writeheader()
+        for row in rows:
+            writer.writerow({k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in row.items()})
 
 
 def output_folder(arguments: argparse.Namespace) -> pathlib.Path:

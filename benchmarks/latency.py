@@ -26,7 +26,6 @@ Writes latency.csv into benchmarks/results/ (results/quick/ with --quick).
 """
 
 import argparse
-import csv
 import os
 import pathlib
 import statistics
@@ -38,7 +37,7 @@ import jax.numpy as jnp
 import numpy as np
 
 import lerax_like  # noqa: F401  (registers the lerax_like/ ids)
-from benchmarks import results_dir
+from benchmarks import results_dir, write_csv
 from lerax_like.gym._compiled import float64, pack_step
 
 
@@ -216,11 +215,7 @@ def main(argv=None):
               f"x{theirs_vector / min(results[name]):5.2f} Gymnasium vector speed")
     print(f"load average at the end {os.getloadavg()}")
     out.mkdir(parents=True, exist_ok=True)
-    with open(out / "latency.csv", "w", newline="") as file:
-        writer = csv.DictWriter(file, fieldnames=list(rows[0]))
-        writer.writeheader()
-        for row in rows:
-            writer.writerow({k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in row.items()})
+    write_csv(out / "latency.csv", rows)
 
 
 if __name__ == "__main__":

@@ -15,7 +15,6 @@ the minimum over blocks is reported.
 Writes render.csv into benchmarks/results/ (results/quick/ with --quick).
 """
 
-import csv
 import os
 import statistics
 import time
@@ -25,7 +24,7 @@ import jax
 import numpy as np
 
 import lerax_like
-from benchmarks import benchmark_parser, output_folder
+from benchmarks import benchmark_parser, output_folder, write_csv
 from lerax_like.gym import SPECS, render_frame
 
 
@@ -91,11 +90,7 @@ def main(argv=None):
             "load_average_before": round(load_before[0], 2), "load_average_after": round(load_after[0], 2),
         })
         print(f"{scene:22s} {renderer:40s} {seconds * 1e3:7.3f} ms  x{seconds / reference:5.2f} Gymnasium's CartPole")
-    with open(out / "render.csv", "w", newline="") as file:
-        writer = csv.DictWriter(file, fieldnames=list(rows[0]))
-        writer.writeheader()
-        for row in rows:
-            writer.writerow({k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in row.items()})
+    write_csv(out / "render.csv", rows)
 
 
 if __name__ == "__main__":

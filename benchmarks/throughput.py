@@ -19,7 +19,6 @@ Writes throughput.csv and throughput.png into benchmarks/results/ (results/quick
 """
 
 import argparse
-import csv
 import os
 import pathlib
 import platform
@@ -29,7 +28,7 @@ import jax.random as jr
 import numpy as np
 
 import lerax_like
-from benchmarks import results_dir
+from benchmarks import results_dir, write_csv
 from benchmarks._workload import batched, compile_seconds, gymnax_program, interleaved, scanned, summary
 
 
@@ -125,11 +124,7 @@ def main(argv=None):
                   f"compile {row['compile_s']:.2f} s", flush=True)
     print(f"load average at the end {os.getloadavg()}")
 
-    with open(out / "throughput.csv", "w", newline="") as file:
-        writer = csv.DictWriter(file, fieldnames=list(rows[0]))
-        writer.writeheader()
-        for row in rows:
-            writer.writerow({k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in row.items()})
+    write_csv(out / "throughput.csv", rows)
     plot(rows, out / "throughput.png", num_steps)
 
 
