@@ -168,3 +168,15 @@ def test_a_new_id_renders_in_every_mode_of_its_vector_env_and_in_human():
     np.testing.assert_array_equal(window, render_frame(human.unwrapped.scene, human.unwrapped.state, np.array([0.5])))
     assert human.render() is None
     human.close()
+
+
+def test_an_array_needs_no_pygame_and_a_window_hints_the_extra(monkeypatch):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "pygame", None)  # makes `import pygame` fail
+    env = gymnasium.make("lerax_like/VanDerPol-v0", render_mode="rgb_array")
+    env.reset(seed=0)
+    assert env.render().shape == (400, 600, 3)
+    human = gymnasium.make("lerax_like/VanDerPol-v0", render_mode="human")
+    with pytest.raises(gymnasium.error.DependencyNotInstalled, match=r"lerax_like\[render\]"):
+        human.reset(seed=0)
