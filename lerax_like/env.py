@@ -13,6 +13,7 @@ pass them. The step semantics (keys, failure guards, autoreset) live in `advance
 
 import abc
 import dataclasses
+import inspect
 from typing import ClassVar, NamedTuple
 
 import equinox as eqx
@@ -24,6 +25,7 @@ from ._episode import episode_limit
 from ._fields import POSITIVE, assign_fields, concrete, parameter
 from ._addons import gather_addons
 from ._random import uniform
+from ._signatures import Constructor, Keyword, annotation_text, refuse_unknown, scene_keywords
 from ._types import Array, BoolScalar, Float, Input, IntScalar, Key, Scalar, State
 from .integrate import Integrator, make_integrator
 from .physics import AbstractDynamics
@@ -52,6 +54,37 @@ def time_step(default: float):
     return parameter(default, POSITIVE)
 
 
+
+
+def _integrator_keywords() -> list[Keyword]:
+    """The integrator's flat keywords, as `make_integrator` declares them."""
+    declared = inspect.signature(make_integrator).parameters
+    return [Keyword(name, declared[name].default, annotation_text(make_integrator, name)) for name in _INTEGRATOR_KEYWORDS]
+
+
+def _construct(self, *fields, **keywords):
+    """Every field by keyword (or by position, in declaration order); besides, the
+    dynamics' parameters and the integrator's settings (`solver`, `stepsize_controller`,
+    `max_steps`, `adjoint`, `substeps`), and the add-ons' parameters (`joint_damping`,
+    ...) flat. A misspelt keyword is refused naming the closest of all these."""
+    cls = type(self)
+    for field, value in zip(dataclasses.fields(cls), fields, strict=False):
+        if field.name in keywords:
+            raise TypeError(f"{cls.__name__} got {field.name} both by position and by keyword")
+        keywords[field.name] = value
+    if len(fields) > len(dataclasses.fields(cls)):
+        raise TypeError(f"{cls.__name__} takes at most {len(dataclasses.fields(cls))} positional fields")
+    refuse_unknown(cls, keywords, inspect.signature(cls).parameters)
+    for alias, name in cls.aliases:
+        if alias in keywords:
+            keywords[name] = keywords.pop(alias)
+    fields = {field.name: field for field in dataclasses.fields(cls)}
+    _gather_dynamics(cls, fields, keywords)
+    _gather_integrator(fields, keywords)
+    gather_addons(cls, keywords)
+    assign_fields(self, keywords)
+    for contact in getattr(self, "contacts", ()):
+        contact.check(self.dynamics)
 
 
 class EnvState(eqx.Module):
@@ -133,28 +166,7 @@ class AbstractEnv(eqx.Module):
     dt: eqx.AbstractVar[Scalar]
     max_episode_steps: eqx.AbstractVar[IntScalar | None]
 
-    def __init__(self, *fields, **keywords):
-        """Every field by keyword (or by position, in declaration order); besides, the
-        dynamics' parameters and the integrator's settings (`solver`, `stepsize_controller`,
-        `max_steps`, `adjoint`, `substeps`), and the add-ons' parameters (`joint_damping`,
-        ...) flat."""
-        cls = type(self)
-        for field, value in zip(dataclasses.fields(cls), fields, strict=False):
-            if field.name in keywords:
-                raise TypeError(f"{cls.__name__} got {field.name} both by position and by keyword")
-            keywords[field.name] = value
-        if len(fields) > len(dataclasses.fields(cls)):
-            raise TypeError(f"{cls.__name__} takes at most {len(dataclasses.fields(cls))} positional fields")
-        for alias, name in cls.aliases:
-            if alias in keywords:
-                keywords[name] = keywords.pop(alias)
-        fields = {field.name: field for field in dataclasses.fields(cls)}
-        _gather_dynamics(cls, fields, keywords)
-        _gather_integrator(fields, keywords)
-        gather_addons(cls, keywords)
-        assign_fields(self, keywords)
-        for contact in getattr(self, "contacts", ()):
-            contact.check(self.dynamics)
+    __init__ = Constructor(_construct, lambda cls: scene_keywords(cls, _integrator_keywords()))
 
     def __init_subclass__(cls, **keywords):
         super().__init_subclass__(**keywords)
