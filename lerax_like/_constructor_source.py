@@ -25,6 +25,8 @@ BEGIN = "    if TYPE_CHECKING:  # the constructor as a type checker sees it; wri
 END = "    # (end of the constructor written by python -m lerax_like._constructor_source)"
 # What a block's annotations may name beyond its module's own names: imported in the block.
 _IMPORTS = {
+    "Sequence": "from collections.abc import Sequence",
+    "Literal": "from typing import Literal",
     "diffrax": "import diffrax",
     "ArrayLike": "from lerax_like._types import ArrayLike",
     "ScalarLike": "from lerax_like._types import ScalarLike",

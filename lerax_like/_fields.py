@@ -12,10 +12,11 @@ integrator reports runtime failures instead).
 
 import dataclasses
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import equinox as eqx
 import jax
+import jax.core  # `jax.core.Tracer`: imported by name, so that a type checker sees the module
 import jax.numpy as jnp
 import numpy as np
 
@@ -155,7 +156,11 @@ class AbstractParametrised(eqx.Module):
     Its signature (`inspect.signature`, `help()`) lists the fields with their defaults.
     """
 
-    __init__ = Constructor(_construct, field_keywords)
+    if TYPE_CHECKING:  # a final class declares its own (`lerax_like._constructor_source`)
+
+        def __init__(self, **values: Any) -> None: ...
+    else:
+        __init__ = Constructor(_construct, field_keywords)
 
 
 __all__ = [

@@ -97,7 +97,7 @@ def field_keywords(cls: type) -> list[Keyword]:
         else:
             default = inspect.Parameter.empty
         if metadata.get("parameter"):
-            annotation = "ArrayLike" if metadata.get("shape") else "ScalarLike"
+            annotation = "ArrayLike | Sequence[float]" if metadata.get("shape") else "ScalarLike"
         else:
             annotation = annotation_text(cls, field.name)
         keywords.append(Keyword(field.name, default, annotation))

@@ -14,7 +14,7 @@ pass them. The step semantics (keys, failure guards, autoreset) live in `advance
 import abc
 import dataclasses
 import inspect
-from typing import ClassVar, NamedTuple
+from typing import TYPE_CHECKING, Any, ClassVar, NamedTuple
 
 import equinox as eqx
 import jax
@@ -166,7 +166,11 @@ class AbstractEnv(eqx.Module):
     dt: eqx.AbstractVar[Scalar]
     max_episode_steps: eqx.AbstractVar[IntScalar | None]
 
-    __init__ = Constructor(_construct, lambda cls: scene_keywords(cls, _integrator_keywords()))
+    if TYPE_CHECKING:  # a final scene declares its own (`lerax_like._constructor_source`)
+
+        def __init__(self, *fields: Any, **keywords: Any) -> None: ...
+    else:
+        __init__ = Constructor(_construct, lambda cls: scene_keywords(cls, _integrator_keywords()))
 
     def __init_subclass__(cls, **keywords):
         super().__init_subclass__(**keywords)

@@ -112,13 +112,14 @@ class NLinkPendulumDynamics(AbstractChainDynamics):
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+        from collections.abc import Sequence
         from lerax_like._types import ArrayLike
 
         def __init__(
             self,
             *,
-            masses: ArrayLike = (1.0, 1.0, 1.0),
-            lengths: ArrayLike = (1.0, 1.0, 1.0),
+            masses: ArrayLike | Sequence[float] = (1.0, 1.0, 1.0),
+            lengths: ArrayLike | Sequence[float] = (1.0, 1.0, 1.0),
             gravity: ScalarLike = 9.81,
         ) -> None: ...
     # (end of the constructor written by python -m lerax_like._constructor_source)
@@ -174,14 +175,15 @@ class CartChainDynamics(AbstractChainDynamics):
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+        from collections.abc import Sequence
         from lerax_like._types import ArrayLike
 
         def __init__(
             self,
             *,
             cart_mass: ScalarLike = 1.0,
-            pole_masses: ArrayLike = (0.1, 0.1),
-            pole_lengths: ArrayLike = (1.0, 1.0),
+            pole_masses: ArrayLike | Sequence[float] = (0.1, 0.1),
+            pole_lengths: ArrayLike | Sequence[float] = (1.0, 1.0),
             gravity: ScalarLike = 9.81,
         ) -> None: ...
     # (end of the constructor written by python -m lerax_like._constructor_source)

@@ -44,7 +44,7 @@ SCENES: Mapping[str, type[AbstractEnv]] = MappingProxyType(_SCENES)
 
 def _abstract_parts(scene: type) -> list[str]:
     """What `scene` leaves abstract: methods, and Equinox's abstract fields and class variables."""
-    parts = set(getattr(scene, "__abstractmethods__", ()))
+    parts: set[str] = set(getattr(scene, "__abstractmethods__", ()))
     parts |= set(getattr(scene, "__abstractvars__", ())) | set(getattr(scene, "__abstractclassvars__", ()))
     if (
         issubclass(scene, AbstractUnitActionEnv)

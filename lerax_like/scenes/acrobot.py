@@ -62,6 +62,7 @@ class Acrobot(AbstractEnv):
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+        from typing import Literal
         import diffrax
         from lerax_like._types import ScalarLike
 

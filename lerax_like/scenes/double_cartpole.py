@@ -70,6 +70,7 @@ class DoubleCartPole(AbstractUnitActionEnv):
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+        from collections.abc import Sequence
         import diffrax
         from lerax_like._types import ArrayLike
         from lerax_like._types import ScalarLike
@@ -89,8 +90,8 @@ class DoubleCartPole(AbstractUnitActionEnv):
             dt: ScalarLike = 0.02,
             max_episode_steps: int | None = 500,
             cart_mass: ScalarLike = 1.0,
-            pole_masses: ArrayLike = (0.1, 0.1),
-            pole_lengths: ArrayLike = (1.0, 1.0),
+            pole_masses: ArrayLike | Sequence[float] = (0.1, 0.1),
+            pole_lengths: ArrayLike | Sequence[float] = (1.0, 1.0),
             gravity: ScalarLike = 9.81,
             solver: str | diffrax.AbstractSolver | Integrator = 'rk4',
             stepsize_controller: diffrax.AbstractStepSizeController | None = None,

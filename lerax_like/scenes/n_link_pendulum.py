@@ -50,6 +50,7 @@ class NLinkPendulum(AbstractUnitActionEnv):
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+        from collections.abc import Sequence
         import diffrax
         from lerax_like._types import ArrayLike
         from lerax_like._types import ScalarLike
@@ -63,8 +64,8 @@ class NLinkPendulum(AbstractUnitActionEnv):
             action_cost: ScalarLike = 0.001,
             dt: ScalarLike = 0.02,
             max_episode_steps: int | None = 500,
-            masses: ArrayLike = (1.0, 1.0, 1.0),
-            lengths: ArrayLike = (1.0, 1.0, 1.0),
+            masses: ArrayLike | Sequence[float] = (1.0, 1.0, 1.0),
+            lengths: ArrayLike | Sequence[float] = (1.0, 1.0, 1.0),
             gravity: ScalarLike = 9.81,
             solver: str | diffrax.AbstractSolver | Integrator = 'rk4',
             stepsize_controller: diffrax.AbstractStepSizeController | None = None,
