@@ -60,41 +60,43 @@ def constructor_source(cls: type) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _class_lines(cls: type, source: list[str]) -> tuple[int, int | None, int]:
-    """Where `cls`'s block goes: (after its docstring, the existing block's (begin, end) or None)."""
+def _class_lines(cls: type, source: list[str]) -> tuple[int, int | None]:
+    """Where `cls`'s block is, `(begin, end)` (line indices), or `(after its docstring, None)`."""
     tree = ast.parse("".join(source))
     for node in ast.walk(tree):
         if isinstance(node, ast.ClassDef) and node.name == cls.__name__:
             first = node.body[0]
             docstring = isinstance(first, ast.Expr) and isinstance(getattr(first, "value", None), ast.Constant)
-            after = first.end_lineno if docstring else node.body[0].lineno - 1
-            assert after is not None
+            after = (first.end_lineno or first.lineno) if docstring else first.lineno - 1
             stop = node.end_lineno or len(source)
             for index in range(node.lineno, stop):
                 if source[index].rstrip("\n") == BEGIN:
                     end = next(i for i in range(index, stop) if source[i].rstrip("\n") == END)
-                    return index, end, after
-            return after, None, after
+                    return index, end
+            return after, None
     raise ValueError(f"class {cls.__name__} not found in its module's source")
+
+
+def _module_source(cls: type) -> tuple[str, list[str]]:
+    """The path of `cls`'s module and its lines as they are on disk now (not as imported)."""
+    path = inspect.getsourcefile(cls)
+    if path is None:
+        raise ValueError(f"{cls.__name__} has no source file")
+    with open(path) as file:
+        return path, file.readlines()
 
 
 def current(cls: type) -> bool:
     """Whether `cls`'s module declares its constructor as `constructor_source` writes it."""
-    path = inspect.getsourcefile(cls)
-    assert path is not None
-    with open(path) as file:
-        source = file.readlines()
-    begin, end, _ = _class_lines(cls, source)
+    _, source = _module_source(cls)
+    begin, end = _class_lines(cls, source)
     return end is not None and "".join(source[begin : end + 1]) == constructor_source(cls)
 
 
 def write(cls: type) -> bool:
     """Write (or rewrite) `cls`'s block into its module's file; whether anything changed."""
-    path = inspect.getsourcefile(cls)
-    assert path is not None
-    with open(path) as file:
-        source = file.readlines()
-    begin, end, _ = _class_lines(cls, source)
+    path, source = _module_source(cls)
+    begin, end = _class_lines(cls, source)
     block = constructor_source(cls)
     if end is None:
         new = [*source[:begin], "\n", block, *source[begin:]]
