@@ -3,6 +3,7 @@
 import dataclasses
 import importlib
 from collections.abc import Callable, Iterator, Mapping, Sequence
+from typing import Any
 
 import diffrax
 import equinox as eqx
@@ -315,7 +316,7 @@ def solver_from_spec(spec: str) -> "str | diffrax.AbstractSolver":
         module = importlib.import_module(module_name)
     except ImportError as error:
         raise ValueError(f"solver {spec!r}: cannot import module {module_name!r} ({error})") from None
-    value = module
+    value: Any = module  # what the attribute path reaches: checked by `solver_instance`
     for part in attribute.split("."):
         try:
             value = getattr(value, part)
