@@ -22,7 +22,6 @@ from .integrate import (
     Integrator as Integrator,
     RK4 as RK4,
     SemiImplicitEuler as SemiImplicitEuler,
-    SOLVER_PRESETS as SOLVER_PRESETS,
     SOLVERS as SOLVERS,
     SolverFacts as SolverFacts,
     SolverPreset as SolverPreset,
@@ -31,15 +30,16 @@ from .integrate import (
     make_integrator as make_integrator,
     register_solver as register_solver,
     solver_facts as solver_facts,
+    solver_from_spec as solver_from_spec,
     unregister_solver as unregister_solver,
 )
-from .cli import solver_from_spec as solver_from_spec
 from .physics import (
     AbstractChainDynamics as AbstractChainDynamics,
     AbstractConservativeDynamics as AbstractConservativeDynamics,
     AbstractDynamics as AbstractDynamics,
     AbstractGeneralisedForce as AbstractGeneralisedForce,
     AcrobotDynamics as AcrobotDynamics,
+    BallDynamics as BallDynamics,
     CartChainDynamics as CartChainDynamics,
     CartPoleDynamics as CartPoleDynamics,
     EndStops as EndStops,
@@ -49,21 +49,116 @@ from .physics import (
     NLinkPendulumDynamics as NLinkPendulumDynamics,
     PendulumDynamics as PendulumDynamics,
     PlanarQuadrotorDynamics as PlanarQuadrotorDynamics,
+    RimlessWheelDynamics as RimlessWheelDynamics,
     VanDerPolDynamics as VanDerPolDynamics,
 )
-from .scenes import SCENES as SCENES, AbstractUnitActionEnv as AbstractUnitActionEnv, register_scene as register_scene
-
-# Every registered scene at the top level (`lerax_like.CartPole`), from the one registry.
-globals().update(SCENES)
+from .scenes import (
+    SCENES as SCENES,
+    AbstractUnitActionEnv as AbstractUnitActionEnv,
+    register_scene as register_scene,
+    # Every scene of the package (`tests/test_public_surface.py` checks that none is missing).
+    Acrobot as Acrobot,
+    BouncingBall as BouncingBall,
+    CartPole as CartPole,
+    CartPoleContinuous as CartPoleContinuous,
+    DoubleCartPole as DoubleCartPole,
+    MountainCar as MountainCar,
+    MountainCarContinuous as MountainCarContinuous,
+    NLinkPendulum as NLinkPendulum,
+    Pendulum as Pendulum,
+    PlanarQuadrotor as PlanarQuadrotor,
+    RimlessWheel as RimlessWheel,
+    VanDerPol as VanDerPol,
+)
 from .spaces import Box as Box, Discrete as Discrete
 
 __version__ = "0.1.0"
 
 # The Gymnasium ids (`gymnasium.make("lerax_like/CartPole-v1")`), registered on import.
 from . import gym as gym
-from .gym import GymnasiumSpec as GymnasiumSpec
 
 gym.register_envs()
 
 # Stable-Baselines3 vector envs (`lerax_like.sb3.make_vec_env`); SB3 is imported on first use.
 from . import sb3 as sb3
+
+from ._module_attributes import deprecated_names as _deprecated_names
+
+# Names that went (one name per concept), importable with a DeprecationWarning.
+__getattr__ = _deprecated_names(
+    __name__,
+    {
+        "SOLVER_PRESETS": ("lerax_like.SOLVERS.names", lambda: SOLVERS.names),
+        # The Gymnasium layer's own names live in it, not beside the physics.
+        "GymnasiumSpec": ("lerax_like.gym.GymnasiumSpec", lambda: gym.GymnasiumSpec),
+    },
+)
+
+__all__ = [
+    "AbstractChainDynamics",
+    "AbstractConservativeDynamics",
+    "AbstractDynamics",
+    "AbstractEnv",
+    "AbstractGeneralisedForce",
+    "AbstractUnitActionEnv",
+    "Acrobot",
+    "AcrobotDynamics",
+    "ADJOINTS",
+    "BallDynamics",
+    "BouncingBall",
+    "Box",
+    "CartChainDynamics",
+    "CartPole",
+    "CartPoleContinuous",
+    "CartPoleDynamics",
+    "describe_solver",
+    "Discrete",
+    "DoubleCartPole",
+    "EndStops",
+    "EnvState",
+    "FINITE",
+    "ForcedDynamics",
+    "gym",
+    "has_error_estimate",
+    "HermiteDenseOutput",
+    "Integrator",
+    "JointDamping",
+    "make_adjoint",
+    "make_integrator",
+    "MountainCar",
+    "MountainCarContinuous",
+    "MountainCarDynamics",
+    "NLinkPendulum",
+    "NLinkPendulumDynamics",
+    "NONNEGATIVE",
+    "option",
+    "parameter",
+    "Pendulum",
+    "PendulumDynamics",
+    "physics",
+    "PlanarQuadrotor",
+    "PlanarQuadrotorDynamics",
+    "POSITIVE",
+    "POSITIVE_OR_INF",
+    "Range",
+    "register_scene",
+    "register_solver",
+    "RimlessWheel",
+    "RimlessWheelDynamics",
+    "RK4",
+    "rollout",
+    "sb3",
+    "SCENES",
+    "SemiImplicitEuler",
+    "solver_facts",
+    "solver_from_spec",
+    "SolverFacts",
+    "SolverPreset",
+    "SOLVERS",
+    "spaces",
+    "unregister_solver",
+    "VanDerPol",
+    "VanDerPolDynamics",
+    "with_adjoint",
+    "__version__",
+]

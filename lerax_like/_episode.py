@@ -2,6 +2,7 @@
 
 import equinox as eqx
 import jax
+import jax.core  # `jax.core.Tracer`: imported by name, so that a type checker sees the module
 import jax.numpy as jnp
 import numpy as np
 

@@ -4,19 +4,23 @@ A physical or task parameter is declared as a field with `parameter(default, che
 static option (one that decides code paths) with `option(default, choices)`. One shared
 `__init__` (`AbstractParametrised`) takes every field as a keyword, converts parameters
 to floating-point array leaves, runs each field's check with the field's own name in the
-message, and refuses unknown keywords with the list of known ones. Checks see concrete
+message, and refuses unknown keywords naming the closest known one; its signature lists
+the fields (`lerax_like._signatures`). Checks see concrete
 values only: under `jax.vmap` a parameter may be a tracer, which is let through (the
 integrator reports runtime failures instead).
 """
 
 import dataclasses
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import equinox as eqx
 import jax
+import jax.core  # `jax.core.Tracer`: imported by name, so that a type checker sees the module
 import jax.numpy as jnp
 import numpy as np
+
+from ._signatures import Constructor, field_keywords, refuse_unknown
 
 
 Check = Callable[[np.ndarray], bool]
@@ -114,13 +118,7 @@ def assign_fields(module: eqx.Module, values: dict[str, Any]) -> None:
     """Set every field of `module` from `values` or its default, converted and checked by name."""
     cls = type(module)
     fields = dataclasses.fields(cls)
-    known = {field.name for field in fields}
-    unknown = sorted(set(values) - known)
-    if unknown:
-        raise TypeError(
-            f"{cls.__name__} got unknown keyword(s) {', '.join(unknown)}; "
-            f"it takes {', '.join(sorted(known))}"
-        )
+    refuse_unknown(cls, values, (field.name for field in fields))
     resolved: dict[str, Any] = {}
     sizes: dict[str, tuple[int, str]] = {}
     for field in fields:
@@ -147,11 +145,22 @@ def assign_fields(module: eqx.Module, values: dict[str, Any]) -> None:
         setattr(module, field.name, value)
 
 
-class AbstractParametrised(eqx.Module):
-    """Constructed by keyword from its fields (see `parameter` and `option`), checked once."""
+def _construct(self, **values):
+    """Every field by keyword; a parameter is converted to a float array and checked by name."""
+    assign_fields(self, values)
 
-    def __init__(self, **values):
-        assign_fields(self, values)
+
+class AbstractParametrised(eqx.Module):
+    """Constructed by keyword from its fields (see `parameter` and `option`), checked once.
+
+    Its signature (`inspect.signature`, `help()`) lists the fields with their defaults.
+    """
+
+    if TYPE_CHECKING:  # a final class declares its own (`lerax_like._constructor_source`)
+
+        def __init__(self, **values: Any) -> None: ...
+    else:
+        __init__ = Constructor(_construct, field_keywords)
 
 
 __all__ = [

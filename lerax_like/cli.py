@@ -12,6 +12,8 @@ import os
 import sys
 import time
 
+from ._module_attributes import deprecated_names
+
 
 SOLVER_HELP = (
     "a solver to study, repeatable: a preset (see `lerax-like solvers`) or 'module:attribute' naming a "
@@ -20,39 +22,6 @@ SOLVER_HELP = (
     "without an error estimate are swept over substeps, those with one over substeps and tolerances. "
     "Default: the study's own set"
 )
-
-
-def solver_from_spec(spec: str) -> "str | diffrax.AbstractSolver":  # noqa: F821 (imported lazily)
-    """The solver a command line names: a preset name, or `module:attribute`.
-
-    `module:attribute` imports `module` (from `sys.path`: `PYTHONPATH`, and the current
-    directory, which the `lerax-like` command puts there) and takes `attribute`: a diffrax
-    solver instance, or a solver class built with no arguments (`diffrax:Bosh3`,
-    `my_methods:RALSTON3`). Returns the preset name (lower case) or the solver instance.
-    """
-    import importlib
-
-    from .integrate import SOLVERS, solver_instance
-
-    if not isinstance(spec, str) or not spec:
-        raise ValueError(f"solver must be a preset name or 'module:attribute', got {spec!r}")
-    if ":" not in spec:
-        return SOLVERS.find(spec).name
-    module_name, _, attribute = spec.partition(":")
-    try:
-        module = importlib.import_module(module_name)
-    except ImportError as error:
-        raise ValueError(f"solver {spec!r}: cannot import module {module_name!r} ({error})") from None
-    value = module
-    for part in attribute.split("."):
-        try:
-            value = getattr(value, part)
-        except AttributeError:
-            raise ValueError(f"solver {spec!r}: module {module_name!r} has no attribute {attribute!r}") from None
-    try:
-        return solver_instance(value)
-    except TypeError as error:
-        raise ValueError(f"solver {spec!r}: {error}") from None
 
 
 def _solvers_from(arguments, command: str):
@@ -65,6 +34,8 @@ def _solvers_from(arguments, command: str):
     if os.getcwd() not in sys.path and "" not in sys.path:
         sys.path.insert(0, os.getcwd())
     try:
+        from .integrate import solver_from_spec
+
         return [solver_from_spec(spec) for spec in arguments.solver]
     except ValueError as error:
         print(f"lerax-like {command}: {error}", file=sys.stderr)
@@ -266,7 +237,7 @@ def _solvers(arguments) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     from .analysis.scenes import SCENES
-    from .integrate import SOLVER_PRESETS
+    from .integrate import SOLVERS
 
     parser = argparse.ArgumentParser(
         prog="lerax-like", description="Solver-accuracy studies on continuous-time control envs."
@@ -314,7 +285,7 @@ def main(argv: list[str] | None = None) -> int:
                                "(CartPole is studied through CartPoleContinuous)")
     variance.add_argument("--quick", action="store_true",
                           help="horizons 10, 30, 100, 256 samples (default: 10 to 200, 512 samples)")
-    variance.add_argument("--solver", nargs="+", metavar="NAME", choices=SOLVER_PRESETS,
+    variance.add_argument("--solver", nargs="+", metavar="NAME", choices=SOLVERS.names,
                           help="solver presets (default: rk4; tsit5 with end stops)")
     variance.add_argument("--end-stop-stiffness", nargs="+", type=float, metavar="K",
                           help="cart-poles: end stops of these stiffnesses (N/m) at 0.5 m, one study each")
@@ -340,6 +311,16 @@ def main(argv: list[str] | None = None) -> int:
 
     arguments = parser.parse_args(argv)
     return arguments.run(arguments)
+
+
+def _solver_from_spec():
+    from .integrate import solver_from_spec
+
+    return solver_from_spec
+
+
+# The solver lookup lived here; it is `lerax_like.integrate.solver_from_spec` now.
+__getattr__ = deprecated_names(__name__, {"solver_from_spec": ("lerax_like.integrate.solver_from_spec", _solver_from_spec)})
 
 
 if __name__ == "__main__":

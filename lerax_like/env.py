@@ -5,32 +5,30 @@ An env is an Equinox module, so it is a pytree: its physical parameters are leav
 
 A scene declares its parts as fields and nothing else: `dynamics` (a physics module),
 `integrator` and its task's parameters (`parameter(...)`, `option(...)`). The one
-`__init__` here takes them by keyword, and also takes the dynamics' parameters and the
-integrator's settings flat (`CartPole(pole_mass=0.2, solver="rk4")`), as Gymnasium users
-pass them. The step semantics (keys, failure guards, autoreset) live in `advance` and
-`step`, which everything else calls: `rollout`, the Gymnasium layer, the studies.
+`__init__` (`lerax_like._construct`) takes them by keyword, and also takes the dynamics'
+parameters and the integrator's settings flat (`CartPole(pole_mass=0.2, solver="rk4")`),
+as Gymnasium users pass them; its signature lists them all (`lerax_like._signatures`).
+The step semantics (keys, failure guards, autoreset) live in `advance` and `step`, which
+everything else calls: `rollout`, the Gymnasium layer, the studies.
 """
 
 import abc
-import dataclasses
-from typing import ClassVar, NamedTuple
+from typing import TYPE_CHECKING, Any, ClassVar, NamedTuple
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import jax.random as jr
 
+from ._construct import construct_scene, integrator_keywords
 from ._episode import episode_limit
-from ._fields import POSITIVE, assign_fields, concrete, parameter
-from ._addons import gather_addons
+from ._fields import POSITIVE, concrete, parameter
 from ._random import uniform
+from ._signatures import Constructor, scene_keywords
 from ._types import Array, BoolScalar, Float, Input, IntScalar, Key, Scalar, State
 from .integrate import Integrator, make_integrator
 from .physics import AbstractDynamics
 from .spaces import AbstractSpace, Box, eager_spaces
-
-
-_INTEGRATOR_KEYWORDS = ("solver", "stepsize_controller", "max_steps", "adjoint", "substeps")
 
 
 def integrator(solver: str = "euler"):
@@ -133,28 +131,11 @@ class AbstractEnv(eqx.Module):
     dt: eqx.AbstractVar[Scalar]
     max_episode_steps: eqx.AbstractVar[IntScalar | None]
 
-    def __init__(self, *fields, **keywords):
-        """Every field by keyword (or by position, in declaration order); besides, the
-        dynamics' parameters and the integrator's settings (`solver`, `stepsize_controller`,
-        `max_steps`, `adjoint`, `substeps`), and the add-ons' parameters (`joint_damping`,
-        ...) flat."""
-        cls = type(self)
-        for field, value in zip(dataclasses.fields(cls), fields, strict=False):
-            if field.name in keywords:
-                raise TypeError(f"{cls.__name__} got {field.name} both by position and by keyword")
-            keywords[field.name] = value
-        if len(fields) > len(dataclasses.fields(cls)):
-            raise TypeError(f"{cls.__name__} takes at most {len(dataclasses.fields(cls))} positional fields")
-        for alias, name in cls.aliases:
-            if alias in keywords:
-                keywords[name] = keywords.pop(alias)
-        fields = {field.name: field for field in dataclasses.fields(cls)}
-        _gather_dynamics(cls, fields, keywords)
-        _gather_integrator(fields, keywords)
-        gather_addons(cls, keywords)
-        assign_fields(self, keywords)
-        for contact in getattr(self, "contacts", ()):
-            contact.check(self.dynamics)
+    if TYPE_CHECKING:  # a final scene declares its own (`lerax_like._constructor_source`)
+
+        def __init__(self, *fields: Any, **keywords: Any) -> None: ...
+    else:
+        __init__ = Constructor(construct_scene, lambda cls: scene_keywords(cls, integrator_keywords()))
 
     def __init_subclass__(cls, **keywords):
         super().__init_subclass__(**keywords)
@@ -427,36 +408,6 @@ class AbstractEnv(eqx.Module):
         # Strong dtypes (a solver's step count is weak-typed), as `reset`'s info has.
         info = {name: jnp.asarray(value, dtype=value.dtype) for name, value in info.items()}
         return new_state, new_observation, reward, terminated, truncated, {**info, "final_observation": observation}
-
-
-def _gather_dynamics(cls, fields, keywords) -> None:
-    """Move the dynamics' flat parameters (`pole_mass=0.2`) into a `dynamics` keyword."""
-    field = fields.get("dynamics")
-    factory = None if field is None else field.metadata.get("factory")
-    if factory is None:
-        return
-    dynamics_class = getattr(factory, "func", factory)
-    names = {f.name for f in dataclasses.fields(dynamics_class)} - set(fields)
-    flat = {name: keywords.pop(name) for name in list(keywords) if name in names}
-    if not flat:
-        return
-    if "dynamics" in keywords:
-        raise TypeError(
-            f"{cls.__name__}: give either dynamics= or its parameters ({', '.join(sorted(flat))}), not both"
-        )
-    keywords["dynamics"] = factory(**flat)
-
-
-def _gather_integrator(fields, keywords) -> None:
-    """Build the `integrator` from the flat solver settings, if any are given."""
-    settings = {name: keywords.pop(name) for name in _INTEGRATOR_KEYWORDS if name in keywords}
-    if not settings or "integrator" not in fields:
-        keywords.update(settings)  # left for `assign_fields` to refuse by name
-        return
-    if "integrator" in keywords:
-        raise TypeError(f"give either integrator= or solver settings ({', '.join(settings)}), not both")
-    settings.setdefault("solver", fields["integrator"].metadata.get("solver", "euler"))
-    keywords["integrator"] = make_integrator(settings.pop("solver"), **settings)
 
 
 def rollout(

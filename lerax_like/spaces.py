@@ -11,6 +11,7 @@ import functools
 
 import equinox as eqx
 import jax
+import jax.core  # `jax.core.Tracer`: imported by name, so that a type checker sees the module
 import jax.numpy as jnp
 import numpy as np
 import jax.random as jr

@@ -58,7 +58,7 @@ def test_every_preset_and_solver_object_builds_and_steps():
         "implicit_euler": 3e-4, "rk4": 5e-7, "kvaerno3": 3e-9, "kvaerno4": 1.5e-8,
         "tsit5": 1e-11, "dopri5": 1e-11, "dopri8": 1e-11, "kvaerno5": 1e-11,
     }
-    solvers = {**{name: name for name in ll.SOLVER_PRESETS}, "Bosh3": diffrax.Bosh3(),
+    solvers = {**{name: name for name in ll.SOLVERS.names}, "Bosh3": diffrax.Bosh3(),
                "rk4, 4 substeps": ll.make_integrator("rk4", substeps=4)}
     bounds.update({"Bosh3": 5e-6, "rk4, 4 substeps": 2e-9})
     assert set(solvers) <= set(bounds), f"no bound for {set(solvers) - set(bounds)}"

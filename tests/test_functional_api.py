@@ -38,13 +38,13 @@ def test_reset_info_has_step_info_structure_every_scene(name, getkey):
     _assert_same_info_structure(ll.SCENES[name](), getkey())
 
 
-@pytest.mark.parametrize("solver", list(ll.SOLVER_PRESETS))
+@pytest.mark.parametrize("solver", list(ll.SOLVERS.names))
 def test_reset_info_has_step_info_structure_every_preset(solver, getkey):
     _assert_same_info_structure(ll.CartPoleContinuous(solver=solver), getkey())
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("solver", list(ll.SOLVER_PRESETS))
+@pytest.mark.parametrize("solver", list(ll.SOLVERS.names))
 @pytest.mark.parametrize("name", list(ll.SCENES))
 def test_reset_info_has_step_info_structure_every_scene_and_preset(name, solver, getkey):
     env = ll.SCENES[name](solver=solver)

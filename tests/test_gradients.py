@@ -84,7 +84,7 @@ PRESET_CONTROLLERS = {"implicit_euler": diffrax.ConstantStepSize()}
 # Through adaptive solves the gradient takes 7 to 18 s per preset on 2 cores.
 @pytest.mark.parametrize(
     "preset",
-    [pytest.param(p, marks=pytest.mark.slow) if ll.make_integrator(p).adaptive else p for p in ll.SOLVER_PRESETS],
+    [pytest.param(p, marks=pytest.mark.slow) if ll.make_integrator(p).adaptive else p for p in ll.SOLVERS.names],
 )
 def test_every_preset_matches_finite_differences(preset):
     name, make_env, actions, differentiable = SCENES[0]

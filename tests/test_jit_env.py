@@ -28,7 +28,7 @@ def _user_controller():
     return diffrax.PIDController(rtol=jnp.asarray(1e-7), atol=1e-10, norm=optimistix.max_norm, pcoeff=0.2, icoeff=0.4)
 
 
-@pytest.mark.parametrize("solver", ll.SOLVER_PRESETS)
+@pytest.mark.parametrize("solver", ll.SOLVERS.names)
 @pytest.mark.parametrize("name", sorted(ll.SCENES))
 def test_every_leaf_of_an_env_is_an_array(name, solver):
     env = ll.SCENES[name](solver=solver)
@@ -76,7 +76,7 @@ def _compare_jit_with_filter_jit(env, key):
 # discrete action.
 _COMPILED_PAIRS = sorted(
     {(name, solver) for name in ll.SCENES for solver in ("tsit5", "kvaerno5", "semi_implicit_euler")}
-    | {(name, solver) for name in ("BouncingBall", "CartPole") for solver in ll.SOLVER_PRESETS}
+    | {(name, solver) for name in ("BouncingBall", "CartPole") for solver in ll.SOLVERS.names}
 )
 
 

@@ -84,3 +84,11 @@ def test_each_gymnasium_id_stands_for_its_rows_scene():
             env = gymnasium.make(env_id, disable_env_checker=True)
             assert type(env.unwrapped.scene) is PACKAGE_SCENES[_ticked(row[0])], env_id
             env.close()
+
+
+def test_each_rows_dynamics_is_at_the_top_level():
+    # The table shows `ll.<Dynamics>` beside `ll.<Scene>`: both must be there.
+    for row in _table_rows():
+        scene, dynamics = _ticked(row[0]), _ticked(row[1])
+        assert getattr(ll, scene) is ll.SCENES[scene]
+        assert dynamics in ll.__all__ and getattr(ll, dynamics) is type(ll.SCENES[scene]().dynamics), dynamics

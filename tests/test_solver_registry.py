@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import lerax_like as ll
-from lerax_like.cli import solver_from_spec
+from lerax_like.integrate import solver_from_spec
 from lerax_like.integrate import SOLVERS, describe_solver
 
 
@@ -121,10 +121,10 @@ def test_solver_facts_refuse_a_solver_of_several_terms():
 
 
 def test_register_a_solver_and_use_it_by_name():
-    names_before = tuple(ll.SOLVER_PRESETS)
+    names_before = tuple(ll.SOLVERS.names)
     preset = ll.register_solver("bosh3", diffrax.Bosh3, order=3, description="Bogacki-Shampine 3(2)")
     try:
-        assert ll.SOLVER_PRESETS[-1] == "bosh3" and len(ll.SOLVER_PRESETS) == len(names_before) + 1
+        assert ll.SOLVERS.names[-1] == "bosh3" and len(ll.SOLVERS.names) == len(names_before) + 1
         assert (preset.stages, preset.evaluations_per_step, preset.error_estimate) == (4, 3, True)
         integrator = ll.make_integrator("bosh3")
         assert isinstance(integrator.solver, diffrax.Bosh3) and integrator.adaptive
@@ -136,7 +136,7 @@ def test_register_a_solver_and_use_it_by_name():
             ll.register_solver("bosh3", diffrax.Bosh3, order=3)
     finally:
         ll.unregister_solver("bosh3")
-    assert tuple(ll.SOLVER_PRESETS) == names_before
+    assert tuple(ll.SOLVERS.names) == names_before
     assert describe_solver(diffrax.Bosh3()).name == "Bosh3"
     with pytest.raises(ValueError, match="built-in"):
         ll.unregister_solver("rk4")

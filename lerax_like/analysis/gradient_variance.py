@@ -117,7 +117,7 @@ class GradientVarianceConfig:
       stops or damping). `CartPole` is studied through `CartPoleContinuous` (a force of
       `action * force_mag` newtons, continuous, so that the cost is differentiable in it).
     - `initial_state`: the fixed start (default: `env.initial` at `seed`).
-    - `solvers`: preset names (`lerax_like.SOLVER_PRESETS`).
+    - `solvers`: preset names (`lerax_like.SOLVERS.names`).
     - `horizons`: env steps; `sigmas`: smoothing scales; `policies`: from `POLICIES`.
     - `feedback_gain`: the nominal gain of `linear_feedback`: `"lqr"`, the discrete LQR
       gain of the cost's weights at the origin (the upright equilibrium), or `"zero"`.

@@ -1,6 +1,7 @@
 """One episode with every solver preset: final-state error against SciPy, and wall time."""
 
 import time
+from collections.abc import Sequence
 from typing import Any
 
 import equinox as eqx
@@ -10,7 +11,7 @@ import jax.random as jr
 import numpy as np
 
 from ..env import rollout
-from ..integrate import SOLVER_PRESETS, make_integrator
+from ..integrate import SOLVERS, make_integrator
 from .reference import reference_trajectories
 from .scenes import make_scene, reference_method
 
@@ -22,7 +23,7 @@ def _rollout(env, state, actions, key):
 
 def preset_rollouts(
     scene: str = "CartPole", *, steps: int = 200, seed: int = 0, repeats: int = 3,
-    presets: tuple[str, ...] = SOLVER_PRESETS, reference_tolerance: float = 1e-13,
+    presets: Sequence[str] = SOLVERS.names, reference_tolerance: float = 1e-13,
 ) -> list[dict[str, Any]]:
     """Roll out one episode of `steps` seeded random actions with each solver preset.
 

@@ -1,7 +1,7 @@
 """The Gymnasium layer: `gymnasium.make("lerax_like/CartPole-v1")` and friends.
 
 The only part of the package that imports gymnasium. On `import lerax_like` the ids of
-`SPECS` (every scene of `lerax_like.SCENES`) are registered, with string entry points naming the classes
+`SPECS` (id -> `GymSpec`, every scene of `lerax_like.SCENES`) are registered, with string entry points naming the classes
 of `lerax_like.gym.envs` (one `GymnasiumEnv` and one `GymnasiumVectorEnv` subclass per
 id: `CartPoleEnv` behind `gymnasium.make`, `CartPoleVectorEnv` behind
 `gymnasium.make_vec(..., vectorization_mode="vector_entry_point")`).
@@ -16,11 +16,16 @@ from ._renderers import (
     register_renderer as register_renderer,
     render_frame as render_frame,
 )
-from ._specs import (
-    GYMNASIUM_SPECS as GYMNASIUM_SPECS,
-    GymnasiumSpec as GymnasiumSpec,
-    GymSpec as GymSpec,
-    SPECS as SPECS,
-)
+from ._specs import GymnasiumSpec as GymnasiumSpec, GymSpec as GymSpec, SPECS as SPECS
 from ._vector import GymnasiumVectorEnv as GymnasiumVectorEnv
 from . import envs as envs
+from .._module_attributes import deprecated_names
+from . import _specs
+
+# One table: the registered ids, `SPECS` (id -> `GymSpec`, whose `scene` and `declared`, a
+# `GymnasiumSpec`, are what the scene-keyed table held).
+__getattr__ = deprecated_names(
+    __name__, {"GYMNASIUM_SPECS": ("SPECS (by id; spec.scene, spec.declared)", lambda: _specs.GYMNASIUM_SPECS)}
+)
+
+__all__ = ["Batch", "Canvas", "GymSpec", "GymnasiumSpec", "GymnasiumEnv", "GymnasiumVectorEnv", "Outcome", "SPECS", "envs", "RENDERERS", "register_envs", "register_renderer", "render_frame"]

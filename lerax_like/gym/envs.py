@@ -26,6 +26,7 @@ import equinox as eqx
 import numpy as np
 
 from .._fields import as_parameter
+from .._module_attributes import generated_names
 from ._compiled import float64
 from ._env import GymnasiumEnv
 from ._render import render_fps
@@ -123,7 +124,9 @@ def _env_classes(spec: GymSpec) -> tuple[type, type]:
 ENV_CLASSES: dict[str, tuple[type, type]] = {spec.id: _env_classes(spec) for spec in SPECS.values()}
 """Id -> (env class, vector env class)."""
 
-globals().update({cls.__name__: cls for classes in ENV_CLASSES.values() for cls in classes})
+_BY_NAME = {cls.__name__: cls for classes in ENV_CLASSES.values() for cls in classes}
+# Generated, one pair per id: found by name as the string entry points and pickle look them up.
+__getattr__ = generated_names(__name__, _BY_NAME)
 
 
 def entry_points(env_id: str) -> tuple[str, str]:
@@ -132,4 +135,4 @@ def entry_points(env_id: str) -> tuple[str, str]:
     return f"{__name__}:{env.__name__}", f"{__name__}:{vector.__name__}"
 
 
-__all__ = ["ENV_CLASSES", "entry_points", *(cls.__name__ for classes in ENV_CLASSES.values() for cls in classes)]
+__all__ = ["ENV_CLASSES", "entry_points", *_BY_NAME]

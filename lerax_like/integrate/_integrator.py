@@ -14,7 +14,7 @@ from ..gradients import warn_if_silent
 from ._controller import GuardedPIDController
 from ._dense import HermiteDenseOutput, needs_hermite_dense_output
 from ._facts import has_error_estimate
-from ._presets import SOLVER_PRESETS, SOLVERS
+from ._presets import SOLVERS
 from ._root_finder import uses_controller_tolerances
 from ._semi_implicit import ProjectedODETerm
 
@@ -57,7 +57,7 @@ class Integrator(eqx.Module):
         substeps: int = 1,
     ):
         if not isinstance(solver, diffrax.AbstractSolver):
-            raise TypeError(f"solver must be a diffrax solver or one of {SOLVER_PRESETS}, got {solver!r}")
+            raise TypeError(f"solver must be a diffrax solver or one of {SOLVERS.names}, got {solver!r}")
         if stepsize_controller is None:
             stepsize_controller = diffrax.ConstantStepSize()
         if not isinstance(stepsize_controller, diffrax.AbstractStepSizeController):
@@ -277,7 +277,7 @@ def make_integrator(
     adjoint: diffrax.AbstractAdjoint | None = None,
     substeps: int = 1,
 ) -> Integrator:
-    """An `Integrator` from a preset name (see `SOLVER_PRESETS`) or a diffrax solver.
+    """An `Integrator` from a preset name (see `SOLVERS.names`) or a diffrax solver.
 
     A preset brings its default controller (`PIDController` for the embedded methods,
     `ConstantStepSize` for the others) unless `stepsize_controller` is given. A solver

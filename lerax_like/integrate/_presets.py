@@ -1,7 +1,9 @@
 """Solvers by name: one table of presets, one lookup, one message for a name it does not hold."""
 
 import dataclasses
+import importlib
 from collections.abc import Callable, Iterator, Mapping, Sequence
+from typing import Any
 
 import diffrax
 import equinox as eqx
@@ -197,7 +199,6 @@ class PresetNames(Sequence[str]):
 SOLVERS = SolverTable(_builtin_presets())
 """Every solver preset by name, the built-in ones and those added by `register_solver`."""
 
-SOLVER_PRESETS: Sequence[str] = SOLVERS.names
 """Names accepted wherever a solver is: `make_integrator("rk4")`, `CartPole(solver="tsit5")`."""
 
 
@@ -270,7 +271,7 @@ def solver_instance(solver: "diffrax.AbstractSolver | type[diffrax.AbstractSolve
     if not isinstance(solver, diffrax.AbstractSolver):
         raise TypeError(
             f"{solver!r} is no diffrax solver (an instance, or a class built with no arguments) and no preset "
-            f"name ({', '.join(SOLVER_PRESETS)})"
+            f"name ({', '.join(SOLVERS.names)})"
         )
     return solver
 
@@ -296,3 +297,32 @@ def describe_solver(solver: "str | diffrax.AbstractSolver | type[diffrax.Abstrac
         type(solver).__name__, lambda: instance, facts.order or 0, facts.stages, facts.evaluations_per_step,
         facts.implicit, facts.error_estimate, adaptive(1e-6, 1e-9) if facts.error_estimate else diffrax.ConstantStepSize,
     )
+
+
+def solver_from_spec(spec: str) -> "str | diffrax.AbstractSolver":
+    """The solver a command line names: a preset name, or `module:attribute`.
+
+    `module:attribute` imports `module` (from `sys.path`: `PYTHONPATH`, and the current
+    directory, which the `lerax-like` command puts there) and takes `attribute`: a diffrax
+    solver instance, or a solver class built with no arguments (`diffrax:Bosh3`,
+    `my_methods:RALSTON3`). Returns the preset name (lower case) or the solver instance.
+    """
+    if not isinstance(spec, str) or not spec:
+        raise ValueError(f"solver must be a preset name or 'module:attribute', got {spec!r}")
+    if ":" not in spec:
+        return SOLVERS.find(spec).name
+    module_name, _, attribute = spec.partition(":")
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as error:
+        raise ValueError(f"solver {spec!r}: cannot import module {module_name!r} ({error})") from None
+    value: Any = module  # what the attribute path reaches: checked by `solver_instance`
+    for part in attribute.split("."):
+        try:
+            value = getattr(value, part)
+        except AttributeError:
+            raise ValueError(f"solver {spec!r}: module {module_name!r} has no attribute {attribute!r}") from None
+    try:
+        return solver_instance(value)
+    except TypeError as error:
+        raise ValueError(f"solver {spec!r}: {error}") from None

@@ -27,3 +27,4 @@ from .contact import (
     Walls as Walls,
 )
 from .ball import BallDynamics as BallDynamics, FloorAndWall as FloorAndWall
+from .rimless_wheel import RimlessWheelDynamics as RimlessWheelDynamics, SpokeContact as SpokeContact

@@ -1,4 +1,4 @@
-from typing import ClassVar, Literal, final
+from typing import TYPE_CHECKING, ClassVar, Literal, final
 
 import jax.numpy as jnp
 
@@ -21,6 +21,23 @@ class AcrobotDynamics(AbstractConservativeDynamics):
     State `y = [theta_1, theta_2, theta_1_dot, theta_2_dot]`: `theta_1` is link 1's angle
     from hanging straight down, `theta_2` link 2's angle relative to link 1.
     """
+
+    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+
+        def __init__(
+            self,
+            *,
+            gravity: ScalarLike = 9.8,
+            link_length_1: ScalarLike = 1.0,
+            link_mass_1: ScalarLike = 1.0,
+            link_mass_2: ScalarLike = 1.0,
+            link_com_position_1: ScalarLike = 0.5,
+            link_com_position_2: ScalarLike = 0.5,
+            link_moment_of_inertia_1: ScalarLike = 1.0,
+            link_moment_of_inertia_2: ScalarLike = 1.0,
+            equations: Literal['book', 'nips'] = 'book',
+        ) -> None: ...
+    # (end of the constructor written by python -m lerax_like._constructor_source)
 
     velocity_indices: ClassVar[tuple[int, ...]] = (2, 3)
 

@@ -1,6 +1,6 @@
 """A point mass in the vertical plane under gravity, and the floor and wall it bounces on."""
 
-from typing import ClassVar, final
+from typing import TYPE_CHECKING, ClassVar, final
 
 import jax.numpy as jnp
 
@@ -17,6 +17,16 @@ class BallDynamics(AbstractConservativeDynamics):
     State `y = [x, z, x_dot, z_dot]` (m, m/s; `z` up); input `u = [F_x, F_z]` (N).
     `x'' = F_x / mass`, `z'' = F_z / mass - gravity`. Generalised coordinates `q = [x, z]`.
     """
+
+    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+
+        def __init__(
+            self,
+            *,
+            mass: ScalarLike = 1.0,
+            gravity: ScalarLike = 9.81,
+        ) -> None: ...
+    # (end of the constructor written by python -m lerax_like._constructor_source)
 
     velocity_indices: ClassVar[tuple[int, ...]] = (2, 3)
 
@@ -42,6 +52,18 @@ class FloorAndWall(AbstractImpulseContact):
     Gaps `[z, wall_position - x]`; restitution `e` on both; below `min_rebound_speed`
     (m/s) the ball rests on the surface until the surface would have to pull.
     """
+
+    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+
+        def __init__(
+            self,
+            *,
+            max_events: int = 16,
+            restitution: ScalarLike = 0.8,
+            wall_position: ScalarLike = 1.0,
+            min_rebound_speed: ScalarLike = 0.01,
+        ) -> None: ...
+    # (end of the constructor written by python -m lerax_like._constructor_source)
 
     restitution: Scalar = parameter(0.8, RESTITUTION)
     wall_position: Scalar = parameter(1.0, FINITE)

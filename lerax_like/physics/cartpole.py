@@ -1,4 +1,4 @@
-from typing import ClassVar, final
+from typing import TYPE_CHECKING, ClassVar, final
 
 import jax.numpy as jnp
 
@@ -24,6 +24,18 @@ class CartPoleDynamics(AbstractChainDynamics):
     `ForcedDynamics`, so that the plain cart-pole holds and computes only Gymnasium's
     four parameters and equations.
     """
+
+    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+
+        def __init__(
+            self,
+            *,
+            gravity: ScalarLike = 9.8,
+            cart_mass: ScalarLike = 1.0,
+            pole_mass: ScalarLike = 0.1,
+            half_length: ScalarLike = 0.5,
+        ) -> None: ...
+    # (end of the constructor written by python -m lerax_like._constructor_source)
 
     velocity_indices: ClassVar[tuple[int, ...]] = (1, 3)
     has_cart: ClassVar[bool] = True

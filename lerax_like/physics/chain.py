@@ -21,7 +21,7 @@ the kinetic energy is `T = 1/2 q'^T M q'` with `M_thth[i, j] = A_ij cos(theta_i 
 masses and lengths are differentiable leaves.
 """
 
-from typing import ClassVar, final
+from typing import TYPE_CHECKING, ClassVar, final
 
 import jax.numpy as jnp
 import numpy as np
@@ -111,6 +111,19 @@ class NLinkPendulumDynamics(AbstractChainDynamics):
     on `theta_i` is therefore `u_i - u_{i+1}`.
     """
 
+    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+        from collections.abc import Sequence
+        from lerax_like._types import ArrayLike
+
+        def __init__(
+            self,
+            *,
+            masses: ArrayLike | Sequence[float] = (1.0, 1.0, 1.0),
+            lengths: ArrayLike | Sequence[float] = (1.0, 1.0, 1.0),
+            gravity: ScalarLike = 9.81,
+        ) -> None: ...
+    # (end of the constructor written by python -m lerax_like._constructor_source)
+
     velocity_indices: ClassVar[None] = None  # the layout depends on the number of links
     has_cart: ClassVar[bool] = False
 
@@ -160,6 +173,20 @@ class CartChainDynamics(AbstractChainDynamics):
     absolute from upright, positive towards `+x`. Input `u` of shape `(1,)`: the
     horizontal force on the cart. The joints are passive.
     """
+
+    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+        from collections.abc import Sequence
+        from lerax_like._types import ArrayLike
+
+        def __init__(
+            self,
+            *,
+            cart_mass: ScalarLike = 1.0,
+            pole_masses: ArrayLike | Sequence[float] = (0.1, 0.1),
+            pole_lengths: ArrayLike | Sequence[float] = (1.0, 1.0),
+            gravity: ScalarLike = 9.81,
+        ) -> None: ...
+    # (end of the constructor written by python -m lerax_like._constructor_source)
 
     velocity_indices: ClassVar[None] = None  # the layout depends on the number of links
     has_cart: ClassVar[bool] = True

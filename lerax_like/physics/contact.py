@@ -27,7 +27,7 @@ physics of a trajectory that barely touches, not a numerical failure.
 """
 
 import abc
-from typing import ClassVar, final
+from typing import TYPE_CHECKING, ClassVar, final
 
 import equinox as eqx
 import jax
@@ -176,6 +176,19 @@ class Walls(AbstractImpulseContact):
     `min_rebound_speed` (m/s) the cart comes to rest against the wall until the wall's
     force would pull. The located alternative to the penalty `EndStops`.
     """
+
+    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+        from lerax_like._types import ScalarLike
+
+        def __init__(
+            self,
+            *,
+            max_events: int = 16,
+            restitution: ScalarLike,
+            track_limit: ScalarLike = 2.4,
+            min_rebound_speed: ScalarLike = 0.001,
+        ) -> None: ...
+    # (end of the constructor written by python -m lerax_like._constructor_source)
 
     restitution: Scalar = parameter(check=RESTITUTION)
     track_limit: Scalar = parameter(2.4, POSITIVE)

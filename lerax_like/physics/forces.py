@@ -15,7 +15,7 @@ Scenes build this for themselves from flat keywords (`CartPole(joint_damping=1.0
 """
 
 import abc
-from typing import ClassVar, final
+from typing import TYPE_CHECKING, ClassVar, final
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -74,6 +74,15 @@ class JointDamping(AbstractGeneralisedForce):
     `-b sum_i (theta_i_dot - theta_{i-1}_dot)**2`.
     """
 
+    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+
+        def __init__(
+            self,
+            *,
+            joint_damping: ScalarLike,
+        ) -> None: ...
+    # (end of the constructor written by python -m lerax_like._constructor_source)
+
     conservative: ClassVar[bool] = False
     requires_cart: ClassVar[bool] = False
 
@@ -107,6 +116,17 @@ class EndStops(AbstractGeneralisedForce):
     adaptive or implicit solver). The springs' potential energy is `k p**2 / 2`; energy
     is conserved when `c = 0`. `track_limit` may be `inf` (no stops).
     """
+
+    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+
+        def __init__(
+            self,
+            *,
+            end_stop_stiffness: ScalarLike = 0.0,
+            end_stop_damping: ScalarLike = 0.0,
+            track_limit: ScalarLike = 2.4,
+        ) -> None: ...
+    # (end of the constructor written by python -m lerax_like._constructor_source)
 
     conservative: ClassVar[bool] = False  # the damper dissipates unless end_stop_damping is 0
     requires_cart: ClassVar[bool] = True

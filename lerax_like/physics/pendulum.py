@@ -1,4 +1,4 @@
-from typing import ClassVar, final
+from typing import TYPE_CHECKING, ClassVar, final
 
 import jax.numpy as jnp
 
@@ -16,6 +16,17 @@ class PendulumDynamics(AbstractConservativeDynamics):
 
     State `y = [theta, theta_dot]`, `theta` measured from upright, counter-clockwise.
     """
+
+    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+
+        def __init__(
+            self,
+            *,
+            gravity: ScalarLike = 10.0,
+            mass: ScalarLike = 1.0,
+            length: ScalarLike = 1.0,
+        ) -> None: ...
+    # (end of the constructor written by python -m lerax_like._constructor_source)
 
     velocity_indices: ClassVar[tuple[int, ...]] = (1,)
 

@@ -1,6 +1,6 @@
 """A quadrotor in the vertical plane: a rigid body with two rotors at the ends of its arm."""
 
-from typing import ClassVar, final
+from typing import TYPE_CHECKING, ClassVar, final
 
 import jax.numpy as jnp
 
@@ -25,6 +25,18 @@ class PlanarQuadrotorDynamics(AbstractConservativeDynamics):
 
     Unpowered it falls freely and spins at a constant rate: `energy` is conserved.
     """
+
+    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+
+        def __init__(
+            self,
+            *,
+            mass: ScalarLike = 1.0,
+            arm_length: ScalarLike = 0.25,
+            moment_of_inertia: ScalarLike = 0.01,
+            gravity: ScalarLike = 9.81,
+        ) -> None: ...
+    # (end of the constructor written by python -m lerax_like._constructor_source)
 
     velocity_indices: ClassVar[tuple[int, ...]] = (3, 4, 5)
 

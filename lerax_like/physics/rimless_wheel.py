@@ -1,4 +1,4 @@
-from typing import ClassVar, final
+from typing import TYPE_CHECKING, ClassVar, final
 
 import jax.numpy as jnp
 import numpy as np
@@ -48,6 +48,19 @@ class RimlessWheelDynamics(AbstractDynamics):
     uphill (`theta'' < 0`), released as soon as they do not. `SpokeContact` leaves a wheel
     slower than its `min_rebound_speed` after an impact in that state.
     """
+
+    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+
+        def __init__(
+            self,
+            *,
+            leg_length: ScalarLike = 1.0,
+            spoke_half_angle: ScalarLike = 0.39269908169872414,
+            slope: ScalarLike = 0.08,
+            gravity: ScalarLike = 9.81,
+            mass: ScalarLike = 1.0,
+        ) -> None: ...
+    # (end of the constructor written by python -m lerax_like._constructor_source)
 
     velocity_indices: ClassVar[tuple[int, ...]] = (1,)
 
@@ -140,6 +153,16 @@ class SpokeContact(AbstractContact):
     spokes would otherwise strike without end, each impact a factor `cos(2 alpha)` slower
     and sooner. `max_events` bounds the strikes of one env step (a failed step beyond).
     """
+
+    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+
+        def __init__(
+            self,
+            *,
+            max_events: int = 32,
+            min_rebound_speed: ScalarLike = 0.001,
+        ) -> None: ...
+    # (end of the constructor written by python -m lerax_like._constructor_source)
 
     min_rebound_speed: Scalar = parameter(1e-3, POSITIVE)
     max_events: int = option(32, None)

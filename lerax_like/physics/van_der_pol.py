@@ -1,4 +1,4 @@
-from typing import ClassVar, final
+from typing import TYPE_CHECKING, ClassVar, final
 
 import jax.numpy as jnp
 
@@ -23,6 +23,15 @@ class VanDerPolDynamics(AbstractDynamics):
     an explicit solver needs steps of order `1e-3` where an implicit one takes steps of
     order 1.
     """
+
+    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+
+        def __init__(
+            self,
+            *,
+            mu: ScalarLike = 1.0,
+        ) -> None: ...
+    # (end of the constructor written by python -m lerax_like._constructor_source)
 
     velocity_indices: ClassVar[None] = None  # first order in this form
 

@@ -10,6 +10,7 @@ from gymnasium.utils import seeding
 from stable_baselines3.common.monitor import Monitor
 from stable_baselines3.common.vec_env import VecEnv, VecMonitor
 
+from .._module_attributes import generated_names
 from ..gym import SPECS, GymnasiumVectorEnv
 from ..gym._inputs import check_actions
 from ..gym.envs import ENV_CLASSES
@@ -110,8 +111,8 @@ def _view_class(env_id: str) -> type[EnvView]:
 
 
 _VIEW_CLASSES = {env_id: _view_class(env_id) for env_id in SPECS}
-# Module attributes, so that pickle finds them by name (a VecEnv with its views pickles).
-globals().update({cls.__name__: cls for cls in _VIEW_CLASSES.values()})
+# Found by name, so that pickle finds them (a VecEnv with its views pickles).
+__getattr__ = generated_names(__name__, {cls.__name__: cls for cls in _VIEW_CLASSES.values()})
 
 
 class CompiledVecEnv(VecEnv):

@@ -44,7 +44,7 @@ SCENES: Mapping[str, type[AbstractEnv]] = MappingProxyType(_SCENES)
 
 def _abstract_parts(scene: type) -> list[str]:
     """What `scene` leaves abstract: methods, and Equinox's abstract fields and class variables."""
-    parts = set(getattr(scene, "__abstractmethods__", ()))
+    parts: set[str] = set(getattr(scene, "__abstractmethods__", ()))
     parts |= set(getattr(scene, "__abstractvars__", ())) | set(getattr(scene, "__abstractclassvars__", ()))
     if (
         issubclass(scene, AbstractUnitActionEnv)
@@ -89,9 +89,44 @@ for _path in _REGISTERED:
     register_scene(_load(_path))
 del _path
 
-globals().update(SCENES)
+# The same classes by plain import, so that tools see them (tests/test_public_surface.py
+# checks that every scene of `_REGISTERED` is here and in `__all__`).
+from .acrobot import Acrobot as Acrobot  # noqa: E402
+from .bouncing_ball import BouncingBall as BouncingBall  # noqa: E402
+from .cartpole import (  # noqa: E402
+    AbstractCartPole as AbstractCartPole,
+    CartPole as CartPole,
+    CartPoleContinuous as CartPoleContinuous,
+)
+from .double_cartpole import DoubleCartPole as DoubleCartPole  # noqa: E402
+from .mountain_car import (  # noqa: E402
+    AbstractMountainCar as AbstractMountainCar,
+    MountainCar as MountainCar,
+    MountainCarContinuous as MountainCarContinuous,
+)
+from .n_link_pendulum import NLinkPendulum as NLinkPendulum  # noqa: E402
+from .pendulum import Pendulum as Pendulum  # noqa: E402
+from .planar_quadrotor import PlanarQuadrotor as PlanarQuadrotor  # noqa: E402
+from .rimless_wheel import RimlessWheel as RimlessWheel  # noqa: E402
+from .van_der_pol import VanDerPol as VanDerPol  # noqa: E402
 
-from .cartpole import AbstractCartPole as AbstractCartPole  # noqa: E402
-from .mountain_car import AbstractMountainCar as AbstractMountainCar  # noqa: E402
-
-__all__ = ["SCENES", "AbstractCartPole", "AbstractMountainCar", "AbstractUnitActionEnv", "is_abstract_scene", "register_scene", *SCENES]
+__all__ = [
+    "SCENES",
+    "AbstractCartPole",
+    "AbstractMountainCar",
+    "AbstractUnitActionEnv",
+    "Acrobot",
+    "BouncingBall",
+    "CartPole",
+    "CartPoleContinuous",
+    "DoubleCartPole",
+    "MountainCar",
+    "MountainCarContinuous",
+    "NLinkPendulum",
+    "Pendulum",
+    "PlanarQuadrotor",
+    "RimlessWheel",
+    "VanDerPol",
+    "is_abstract_scene",
+    "register_scene",
+]

@@ -1,4 +1,4 @@
-from typing import ClassVar, final
+from typing import TYPE_CHECKING, ClassVar, final
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -51,6 +51,39 @@ class BouncingBall(AbstractUnitActionEnv):
     `target_z`, `left_limit`, `ceiling`, `max_distance`, `action_cost`, `dt`, `integrator`
     or `solver` (default `"tsit5"`) with `stepsize_controller`, `max_episode_steps`.
     """
+
+    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+        import diffrax
+        from lerax_like._types import ScalarLike
+
+        def __init__(
+            self,
+            *,
+            dynamics: BallDynamics = ...,
+            integrator: Integrator = ...,
+            contacts: tuple = ...,
+            max_thrust: ScalarLike = 20.0,
+            target_x: ScalarLike = 0.5,
+            target_z: ScalarLike = 1.0,
+            left_limit: ScalarLike = 2.0,
+            ceiling: ScalarLike = 4.0,
+            max_distance: ScalarLike = 5.0,
+            action_cost: ScalarLike = 0.01,
+            dt: ScalarLike = 0.02,
+            max_episode_steps: int | None = 200,
+            mass: ScalarLike = 1.0,
+            gravity: ScalarLike = 9.81,
+            solver: str | diffrax.AbstractSolver | Integrator = 'tsit5',
+            stepsize_controller: diffrax.AbstractStepSizeController | None = None,
+            max_steps: int | None = None,
+            adjoint: diffrax.AbstractAdjoint | None = None,
+            substeps: int = 1,
+            max_events: int | None = None,
+            restitution: ScalarLike | None = None,
+            wall_position: ScalarLike | None = None,
+            min_rebound_speed: ScalarLike | None = None,
+        ) -> None: ...
+    # (end of the constructor written by python -m lerax_like._constructor_source)
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
     action_size: ClassVar[int] = 2

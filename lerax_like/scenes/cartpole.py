@@ -1,5 +1,5 @@
 import math
-from typing import ClassVar, Literal, final
+from typing import TYPE_CHECKING, ClassVar, Literal, final
 
 import jax.numpy as jnp
 
@@ -108,6 +108,42 @@ class CartPole(AbstractCartPole):
     Stiff settings need an adaptive solver (`"tsit5"`) or an implicit one (`"kvaerno5"`).
     """
 
+    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+        import diffrax
+        from lerax_like._types import ScalarLike
+
+        def __init__(
+            self,
+            *,
+            dynamics: CartPoleDynamics = ...,
+            integrator: Integrator = ...,
+            forces: tuple = (),
+            contacts: tuple = (),
+            force_mag: ScalarLike = 10.0,
+            theta_threshold_radians: ScalarLike = 0.20943951023931953,
+            x_threshold: ScalarLike = 2.4,
+            dt: ScalarLike = 0.02,
+            max_episode_steps: int | None = 500,
+            sutton_barto_reward: bool = False,
+            gravity: ScalarLike = 9.8,
+            cart_mass: ScalarLike = 1.0,
+            pole_mass: ScalarLike = 0.1,
+            half_length: ScalarLike = 0.5,
+            solver: str | diffrax.AbstractSolver | Integrator = 'euler',
+            stepsize_controller: diffrax.AbstractStepSizeController | None = None,
+            max_steps: int | None = None,
+            adjoint: diffrax.AbstractAdjoint | None = None,
+            substeps: int = 1,
+            joint_damping: ScalarLike | None = None,
+            end_stop_stiffness: ScalarLike | None = None,
+            end_stop_damping: ScalarLike | None = None,
+            track_limit: ScalarLike | None = None,
+            max_events: int | None = None,
+            restitution: ScalarLike | None = None,
+            min_rebound_speed: ScalarLike | None = None,
+        ) -> None: ...
+    # (end of the constructor written by python -m lerax_like._constructor_source)
+
 
     sutton_barto_reward: bool = option(False, (False, True))
 
@@ -159,6 +195,44 @@ class CartPoleContinuous(AbstractCartPole, AbstractUnitActionEnv):
     ## Arguments
     Those of `CartPole` (the add-ons included), plus `reward` and `action_cost` (>= 0).
     """
+
+    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+        import diffrax
+        from lerax_like._types import ScalarLike
+
+        def __init__(
+            self,
+            *,
+            dynamics: CartPoleDynamics = ...,
+            integrator: Integrator = ...,
+            forces: tuple = (),
+            contacts: tuple = (),
+            force_mag: ScalarLike = 10.0,
+            theta_threshold_radians: ScalarLike = 0.20943951023931953,
+            x_threshold: ScalarLike = 2.4,
+            dt: ScalarLike = 0.02,
+            max_episode_steps: int | None = 500,
+            action_cost: ScalarLike = 0.001,
+            reward_kind: Literal['gymnasium', 'smooth'] = 'gymnasium',
+            gravity: ScalarLike = 9.8,
+            cart_mass: ScalarLike = 1.0,
+            pole_mass: ScalarLike = 0.1,
+            half_length: ScalarLike = 0.5,
+            solver: str | diffrax.AbstractSolver | Integrator = 'euler',
+            stepsize_controller: diffrax.AbstractStepSizeController | None = None,
+            max_steps: int | None = None,
+            adjoint: diffrax.AbstractAdjoint | None = None,
+            substeps: int = 1,
+            joint_damping: ScalarLike | None = None,
+            end_stop_stiffness: ScalarLike | None = None,
+            end_stop_damping: ScalarLike | None = None,
+            track_limit: ScalarLike | None = None,
+            max_events: int | None = None,
+            restitution: ScalarLike | None = None,
+            min_rebound_speed: ScalarLike | None = None,
+            reward: Literal['gymnasium', 'smooth'] | None = None,
+        ) -> None: ...
+    # (end of the constructor written by python -m lerax_like._constructor_source)
 
     # `reward` is the keyword users know; the field is `reward_kind`, as `reward` is the method.
     aliases: ClassVar[tuple[tuple[str, str], ...]] = (("reward", "reward_kind"),)

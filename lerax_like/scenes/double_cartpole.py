@@ -1,5 +1,5 @@
 import math
-from typing import ClassVar, Literal, final
+from typing import TYPE_CHECKING, ClassVar, Literal, final
 
 import jax.numpy as jnp
 
@@ -14,6 +14,7 @@ from ._unit_action import AbstractUnitActionEnv
 
 
 def _track_default(values) -> float:
+    """2.4 for balance, inf for swing_up"""
     return 2.4 if values["task"] == "balance" else math.inf
 
 
@@ -67,6 +68,45 @@ class DoubleCartPole(AbstractUnitActionEnv):
     `min_rebound_speed` and `max_events`: an impulse-consistent impact, both poles' rates
     jump) or as penalty end stops (`end_stop_stiffness`, `end_stop_damping`), as `CartPole`.
     """
+
+    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+        from collections.abc import Sequence
+        import diffrax
+        from lerax_like._types import ArrayLike
+        from lerax_like._types import ScalarLike
+
+        def __init__(
+            self,
+            *,
+            task: Literal['balance', 'swing_up'] = 'balance',
+            dynamics: CartChainDynamics = ...,
+            integrator: Integrator = ...,
+            forces: tuple = (),
+            contacts: tuple = (),
+            force_mag: ScalarLike = 20.0,
+            theta_threshold_radians: ScalarLike = 0.20943951023931953,
+            x_threshold: ScalarLike = ...,
+            action_cost: ScalarLike = 0.001,
+            dt: ScalarLike = 0.02,
+            max_episode_steps: int | None = 500,
+            cart_mass: ScalarLike = 1.0,
+            pole_masses: ArrayLike | Sequence[float] = (0.1, 0.1),
+            pole_lengths: ArrayLike | Sequence[float] = (1.0, 1.0),
+            gravity: ScalarLike = 9.81,
+            solver: str | diffrax.AbstractSolver | Integrator = 'rk4',
+            stepsize_controller: diffrax.AbstractStepSizeController | None = None,
+            max_steps: int | None = None,
+            adjoint: diffrax.AbstractAdjoint | None = None,
+            substeps: int = 1,
+            joint_damping: ScalarLike | None = None,
+            end_stop_stiffness: ScalarLike | None = None,
+            end_stop_damping: ScalarLike | None = None,
+            track_limit: ScalarLike | None = None,
+            max_events: int | None = None,
+            restitution: ScalarLike | None = None,
+            min_rebound_speed: ScalarLike | None = None,
+        ) -> None: ...
+    # (end of the constructor written by python -m lerax_like._constructor_source)
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
     addons: ClassVar[tuple[type, ...]] = (JointDamping, EndStops, Walls)

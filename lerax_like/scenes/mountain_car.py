@@ -1,4 +1,4 @@
-from typing import ClassVar, final
+from typing import TYPE_CHECKING, ClassVar, final
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -101,6 +101,32 @@ class MountainCar(AbstractMountainCar):
     `stepsize_controller`, `max_episode_steps` (200).
     """
 
+    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+        import diffrax
+        from lerax_like._types import ScalarLike
+
+        def __init__(
+            self,
+            *,
+            dynamics: MountainCarDynamics = ...,
+            integrator: Integrator = ...,
+            min_position: ScalarLike = -1.2,
+            max_position: ScalarLike = 0.6,
+            max_speed: ScalarLike = 0.07,
+            goal_velocity: ScalarLike = 0.0,
+            dt: ScalarLike = 1.0,
+            force: ScalarLike = 0.001,
+            goal_position: ScalarLike = 0.5,
+            max_episode_steps: int | None = 200,
+            gravity: ScalarLike = 0.0025,
+            solver: str | diffrax.AbstractSolver | Integrator = 'semi_implicit_euler',
+            stepsize_controller: diffrax.AbstractStepSizeController | None = None,
+            max_steps: int | None = None,
+            adjoint: diffrax.AbstractAdjoint | None = None,
+            substeps: int = 1,
+        ) -> None: ...
+    # (end of the constructor written by python -m lerax_like._constructor_source)
+
 
     force: Scalar = parameter(0.001, POSITIVE)
     goal_position: Scalar = parameter(0.5, FINITE)
@@ -152,6 +178,32 @@ class MountainCarContinuous(AbstractMountainCar, AbstractUnitActionEnv):
     (0.45), `goal_velocity` (0), `dt` (1), `integrator` or `solver` with
     `stepsize_controller`, `max_episode_steps` (999).
     """
+
+    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+        import diffrax
+        from lerax_like._types import ScalarLike
+
+        def __init__(
+            self,
+            *,
+            dynamics: MountainCarDynamics = ...,
+            integrator: Integrator = ...,
+            min_position: ScalarLike = -1.2,
+            max_position: ScalarLike = 0.6,
+            max_speed: ScalarLike = 0.07,
+            goal_velocity: ScalarLike = 0.0,
+            dt: ScalarLike = 1.0,
+            power: ScalarLike = 0.0015,
+            goal_position: ScalarLike = 0.45,
+            max_episode_steps: int | None = 999,
+            gravity: ScalarLike = 0.0025,
+            solver: str | diffrax.AbstractSolver | Integrator = 'semi_implicit_euler',
+            stepsize_controller: diffrax.AbstractStepSizeController | None = None,
+            max_steps: int | None = None,
+            adjoint: diffrax.AbstractAdjoint | None = None,
+            substeps: int = 1,
+        ) -> None: ...
+    # (end of the constructor written by python -m lerax_like._constructor_source)
 
     action_size: ClassVar[int] = 1
     action_scale: ClassVar[str] = "power"

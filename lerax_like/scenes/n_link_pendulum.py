@@ -1,5 +1,5 @@
 import math
-from typing import ClassVar, final
+from typing import TYPE_CHECKING, ClassVar, final
 
 import jax.numpy as jnp
 
@@ -48,6 +48,32 @@ class NLinkPendulum(AbstractUnitActionEnv):
     `stepsize_controller`, `max_episode_steps`. The number of links n is
     the length of `masses`.
     """
+
+    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+        from collections.abc import Sequence
+        import diffrax
+        from lerax_like._types import ArrayLike
+        from lerax_like._types import ScalarLike
+
+        def __init__(
+            self,
+            *,
+            dynamics: NLinkPendulumDynamics = ...,
+            integrator: Integrator = ...,
+            max_torque: ScalarLike = 0.0,
+            action_cost: ScalarLike = 0.001,
+            dt: ScalarLike = 0.02,
+            max_episode_steps: int | None = 500,
+            masses: ArrayLike | Sequence[float] = (1.0, 1.0, 1.0),
+            lengths: ArrayLike | Sequence[float] = (1.0, 1.0, 1.0),
+            gravity: ScalarLike = 9.81,
+            solver: str | diffrax.AbstractSolver | Integrator = 'rk4',
+            stepsize_controller: diffrax.AbstractStepSizeController | None = None,
+            max_steps: int | None = None,
+            adjoint: diffrax.AbstractAdjoint | None = None,
+            substeps: int = 1,
+        ) -> None: ...
+    # (end of the constructor written by python -m lerax_like._constructor_source)
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
     action_scale: ClassVar[str] = "max_torque"

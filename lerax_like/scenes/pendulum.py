@@ -1,4 +1,4 @@
-from typing import ClassVar, final
+from typing import TYPE_CHECKING, ClassVar, final
 
 import jax.numpy as jnp
 
@@ -48,6 +48,31 @@ class Pendulum(AbstractEnv):
     `dt` (0.05), `integrator` or `solver` (a preset name or a diffrax solver) with
     `stepsize_controller`, `max_episode_steps`.
     """
+
+    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+        import diffrax
+        from lerax_like._types import ScalarLike
+
+        def __init__(
+            self,
+            *,
+            dynamics: PendulumDynamics = ...,
+            integrator: Integrator = ...,
+            max_speed: ScalarLike = 8.0,
+            max_torque: ScalarLike = 2.0,
+            dt: ScalarLike = 0.05,
+            max_episode_steps: int | None = 200,
+            gravity: ScalarLike = 10.0,
+            mass: ScalarLike = 1.0,
+            length: ScalarLike = 1.0,
+            solver: str | diffrax.AbstractSolver | Integrator = 'semi_implicit_euler',
+            stepsize_controller: diffrax.AbstractStepSizeController | None = None,
+            max_steps: int | None = None,
+            adjoint: diffrax.AbstractAdjoint | None = None,
+            substeps: int = 1,
+            g: ScalarLike | None = None,
+        ) -> None: ...
+    # (end of the constructor written by python -m lerax_like._constructor_source)
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
     aliases: ClassVar[tuple[tuple[str, str], ...]] = (("g", "gravity"),)

@@ -1,5 +1,5 @@
 import math
-from typing import ClassVar, final
+from typing import TYPE_CHECKING, ClassVar, final
 
 import jax.numpy as jnp
 
@@ -48,6 +48,32 @@ class PlanarQuadrotor(AbstractUnitActionEnv):
     `moment_of_inertia`, `gravity`. `position_limit`, `theta_limit`, `dt`, `integrator` or
     `solver` with `stepsize_controller`, `max_episode_steps`.
     """
+
+    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+        import diffrax
+        from lerax_like._types import ScalarLike
+
+        def __init__(
+            self,
+            *,
+            dynamics: PlanarQuadrotorDynamics = ...,
+            integrator: Integrator = ...,
+            position_limit: ScalarLike = 2.0,
+            theta_limit: ScalarLike = 1.5707963267948966,
+            action_cost: ScalarLike = 0.25,
+            dt: ScalarLike = 0.02,
+            max_episode_steps: int | None = 500,
+            mass: ScalarLike = 1.0,
+            arm_length: ScalarLike = 0.25,
+            moment_of_inertia: ScalarLike = 0.01,
+            gravity: ScalarLike = 9.81,
+            solver: str | diffrax.AbstractSolver | Integrator = 'rk4',
+            stepsize_controller: diffrax.AbstractStepSizeController | None = None,
+            max_steps: int | None = None,
+            adjoint: diffrax.AbstractAdjoint | None = None,
+            substeps: int = 1,
+        ) -> None: ...
+    # (end of the constructor written by python -m lerax_like._constructor_source)
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
     action_size: ClassVar[int] = 2

@@ -1,4 +1,4 @@
-from typing import ClassVar, final
+from typing import TYPE_CHECKING, ClassVar, final
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -57,6 +57,37 @@ class RimlessWheel(AbstractUnitActionEnv):
     (1.5 rad/s), `max_cost`, `action_cost`, `dt` (0.05), `integrator` or `solver`
     (default `"tsit5"`) with `stepsize_controller`, `max_episode_steps`.
     """
+
+    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+        import diffrax
+        from lerax_like._types import ScalarLike
+
+        def __init__(
+            self,
+            *,
+            dynamics: RimlessWheelDynamics = ...,
+            integrator: Integrator = ...,
+            contacts: tuple = ...,
+            max_torque: ScalarLike = 1.0,
+            target_speed: ScalarLike = 1.5,
+            max_cost: ScalarLike = 25.0,
+            action_cost: ScalarLike = 0.01,
+            dt: ScalarLike = 0.05,
+            max_episode_steps: int | None = 400,
+            leg_length: ScalarLike = 1.0,
+            spoke_half_angle: ScalarLike = 0.39269908169872414,
+            slope: ScalarLike = 0.08,
+            gravity: ScalarLike = 9.81,
+            mass: ScalarLike = 1.0,
+            solver: str | diffrax.AbstractSolver | Integrator = 'tsit5',
+            stepsize_controller: diffrax.AbstractStepSizeController | None = None,
+            max_steps: int | None = None,
+            adjoint: diffrax.AbstractAdjoint | None = None,
+            substeps: int = 1,
+            max_events: int | None = None,
+            min_rebound_speed: ScalarLike | None = None,
+        ) -> None: ...
+    # (end of the constructor written by python -m lerax_like._constructor_source)
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
     action_size: ClassVar[int] = 1

@@ -1,4 +1,4 @@
-from typing import ClassVar, final
+from typing import TYPE_CHECKING, ClassVar, final
 
 import jax.numpy as jnp
 
@@ -52,6 +52,29 @@ class VanDerPol(AbstractUnitActionEnv):
     (a preset name or a diffrax solver; default `"tsit5"`, use `"kvaerno5"` from `mu` of
     about 100) with `stepsize_controller`, `max_episode_steps`.
     """
+
+    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+        import diffrax
+        from lerax_like._types import ScalarLike
+
+        def __init__(
+            self,
+            *,
+            dynamics: VanDerPolDynamics = ...,
+            integrator: Integrator = ...,
+            force_mag: ScalarLike = 1.0,
+            target_amplitude: ScalarLike = 1.0,
+            action_cost: ScalarLike = 0.01,
+            dt: ScalarLike = 0.05,
+            max_episode_steps: int | None = 200,
+            mu: ScalarLike = 1.0,
+            solver: str | diffrax.AbstractSolver | Integrator = 'tsit5',
+            stepsize_controller: diffrax.AbstractStepSizeController | None = None,
+            max_steps: int | None = None,
+            adjoint: diffrax.AbstractAdjoint | None = None,
+            substeps: int = 1,
+        ) -> None: ...
+    # (end of the constructor written by python -m lerax_like._constructor_source)
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
     # Stiff from mu of about 100: the studies take their reference from SciPy's Radau.
