@@ -63,7 +63,7 @@ NOT_RUN = "<!-- not run by tests/test_docs.py:"
 
 def page_code(page: pathlib.Path) -> str:
     """The page's Python code blocks, in order, as one script (those marked `NOT_RUN` left out)."""
-    blocks = re.findall(r"^(.*)\n```python\n(.*?)^```", page.read_text(), flags=re.S | re.M)
+    blocks = re.findall(r"^([^\n]*)\n```python\n(.*?)^```", page.read_text(), flags=re.S | re.M)
     assert blocks, f"{page.name} has no python code block"
     return "\n".join(code for before, code in blocks if not before.startswith(NOT_RUN))
 
@@ -139,7 +139,7 @@ def test_the_new_scene_page_is_in_the_documentation_nav():
 
 CODE_PAGES = sorted(
     page for page in [ROOT / "README.md", *(ROOT / "docs").glob("*.md")]
-    if page != NEW_SCENE_PAGE and "```python" in page.read_text()
+    if page != NEW_SCENE_PAGE and "```python" in page.read_text() and page_code(page).strip()
 )
 
 
@@ -148,7 +148,7 @@ CODE_PAGES = sorted(
 def test_the_pages_code_runs(page, tmp_path):
     # In a process of its own from an empty folder, with HOME there, so that what a page writes
     # (a cache folder under ~) lands in the test's folder.
-    script = tmp_path / f"{page.stem}.py"
+    script = tmp_path / f"page_{page.stem}.py"  # not gymnasium.py, which would shadow gymnasium
     script.write_text(page_code(page) + "\nprint('ok')\n")
     completed = _run([str(script)], cwd=tmp_path, environment={"HOME": str(tmp_path)})
     assert completed.returncode == 0 and completed.stdout.strip().endswith("ok"), completed.stderr[-4000:]
