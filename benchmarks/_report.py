@@ -475,6 +475,10 @@ def ppo_baseline(folder, link):
     ]
 
 
+def _load(data: dict) -> str:
+    return f"load average {data['load_average_before'][0]} before, {data['load_average_after'][0]} after"
+
+
 def sb3_vector(folder, link):
     data = _read_json(folder, "sb3_vector.json")
     if data is None:
@@ -484,20 +488,48 @@ def sb3_vector(folder, link):
     lines = [
         f"PPO ({recipe['policy']}, seed {recipe['seed']}, n_steps={recipe['n_steps']}, {recipe['n_envs']} envs, "
         f"{recipe['total_timesteps']} steps; {recipe['evaluation']}), runs in the order {', '.join(data['order'])}; "
-        f"load average {data['load_average_before'][0]} before, {data['load_average_after'][0]} after:", "",
+        f"{_load(data)}:", "",
     ]
     lines += _table(
         ["VecEnv", "mean return", "fastest training (s)"],
         [["`lerax_like.sb3.make_vec_env`", f"{returns['lerax_like']:g}", f"{seconds['lerax_like']:.1f}"],
          ["SB3's `make_vec_env` (DummyVecEnv)", f"{returns['gymnasium']:g}", f"{seconds['gymnasium']:.1f}"]],
     )
+    median = data.get("median_wall_time_ratio_lerax_like_vs_sb3")
     lines += [
         f"Return ratio {data['return_ratio_lerax_like_vs_sb3']:.2f}, wall-time ratio "
-        f"{data['wall_time_ratio_lerax_like_vs_sb3']:.2f} (lerax_like / SB3). The VecEnvs alone, random actions: "
+        f"{data['wall_time_ratio_lerax_like_vs_sb3']:.2f} (lerax_like / SB3, fastest runs"
+        + (f"; {median:.2f} by the median runs" if median is not None else "") + "). The VecEnvs alone, random actions: "
         f"{speed['lerax_like_n8']:,} against {speed['gymnasium_n8']:,} steps/s at 8 envs, "
         f"{speed['lerax_like_n256']:,} against {speed['gymnasium_n256']:,} at 256.", "",
     ]
+    if "env_speedup" in data:
+        lines += _table(
+            ["JAX's CPU dispatch", "n_envs", "lerax_like / SB3 env steps per s (fastest round)", "(median round)"],
+            [[dispatch, n_envs, f"{ratios['fastest']:.2f}", f"{ratios['median']:.2f}"]
+             for key, ratios in data["env_speedup"].items() for dispatch, n_envs in [key.split("_n")]],
+        )
     return lines
+
+
+def cleanrl_loop(folder, link):
+    rows, data = _read_csv(folder, "cleanrl_loop.csv"), _read_json(folder, "cleanrl_loop.json")
+    if rows is None or data is None:
+        return []
+    recipe = data["recipe"]
+    return [
+        f"Gymnasium's `SyncVectorEnv` of {recipe['num_envs']} envs from `gymnasium.make`, {recipe['env_steps']} env "
+        f"steps of {recipe['actions']} actions, each run a fresh process, {recipe['rounds']} interleaved rounds "
+        f"(medians); {_load(data)}:", "",
+    ] + _table(
+        ["env", "persistent compilation cache", "import (s)", "setup: make, reset, first step (s)",
+         "of which backend compile (s)", "vector step (us)", "step / Gymnasium's", "process (s)",
+         "process / Gymnasium's"],
+        [[f"`{row['env_id']}`", row["persistent_cache"], _g(row["import_s"]), _g(row["setup_s"]),
+          _g(row["backend_compile_s"]) or "-", _g(row["step_us"]), _g(row["step_ratio"]), _g(row["process_s"]),
+          _g(row["process_ratio"])]
+         for row in rows],
+    )
 
 
 def jax_rl(folder, link):
@@ -652,6 +684,7 @@ SECTIONS = {
     "ppo_baseline": ppo_baseline,
     "jax_rl": jax_rl,
     "sb3_vector": sb3_vector,
+    "cleanrl_loop": cleanrl_loop,
     "gym_before_after": gym_before_after,
     "contact": contact,
     "render": render,

@@ -1,19 +1,21 @@
-"""PPO on `lerax_like.sb3.make_vec_env` against PPO on SB3's own `make_vec_env`, in one run.
+"""PPO on `lerax_like.sb3.make_vec_env` against PPO on SB3's own `make_vec_env`, in interleaved rounds.
 
-    python -m benchmarks sb3_vector            # 40k steps, two rounds (ABBA order)
-    python -m benchmarks sb3_vector --quick    # 4k steps, one round
+    python -m benchmarks sb3_vector            # 40k steps, 3 rounds
+    python -m benchmarks sb3_vector --quick    # 4k steps, 1 round
 
 The issue's recipe: PPO (`MlpPolicy`, seed 0, `n_steps=256`, other settings SB3's defaults,
 CPU) on `make_vec_env("lerax_like/CartPole-v1", n_envs=8, seed=0)` and on SB3's
 `make_vec_env("CartPole-v1", n_envs=8, seed=0)` (a `DummyVecEnv` of Gymnasium's numpy
 CartPole), 40k steps each. Both trained policies are evaluated on Gymnasium's own env
-(20 episodes, deterministic actions, the same evaluation seeds). The training runs go in
-ABBA order, so that a drift of the machine's load hits both alike; each one's wall time is
-kept, and the ratios use the fastest run of each. PyTorch runs on one thread (the machine
-is shared; the same for both).
+(20 episodes, deterministic actions, the same evaluation seeds). Each round trains both, the
+order reversed every other round (AB, BA, AB, ...), so that a drift of the machine's load
+hits both alike; each run's wall time is kept, and the ratios are taken of the fastest and of
+the median run of each. PyTorch runs on one thread (the machine is shared; the same for both).
 
-Beside it, the env alone: steps per second of random actions through each `VecEnv`
-(`step_async`/`step_wait`, SB3's infos, autoreset) at n_envs = 8 and 256.
+Beside it, the env alone, interleaved the same way: steps per second of random actions
+through each `VecEnv` (`step_async`/`step_wait`, SB3's infos, autoreset) at n_envs = 8 and
+256, in this process (JAX's default asynchronous CPU dispatch) and in a second process with
+`JAX_CPU_ENABLE_ASYNC_DISPATCH=false` (each computation runs in the calling thread).
 Writes sb3_vector.json under `--out` (default benchmarks/results, or results/quick with --quick).
 """
 
@@ -22,6 +24,9 @@ import datetime
 import json
 import os
 import platform
+import statistics
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -73,14 +78,51 @@ def env_throughput(kind: str, n_envs: int, steps: int, repeats: int) -> float:
     return n_envs * steps / best
 
 
+def throughputs(rounds: int, repeats: int) -> dict[str, list[float]]:
+    """Env steps per second of each VecEnv, `rounds` interleaved rounds, by `KIND_n{n_envs}`."""
+    speeds = {}
+    for round_index in range(rounds):
+        for n_envs in (8, 256):
+            steps = 400 if n_envs == 8 else 40
+            kinds = ("gymnasium", "lerax_like") if round_index % 2 == 0 else ("lerax_like", "gymnasium")
+            for kind in kinds:
+                speeds.setdefault(f"{kind}_n{n_envs}", []).append(env_throughput(kind, n_envs, steps, repeats))
+    return speeds
+
+
+def inline_throughputs(rounds: int, repeats: int) -> dict[str, list[float]]:
+    """`throughputs` in a process of its own with JAX's CPU dispatch inline (a setting read
+    when JAX starts its CPU client, so not one this process can change)."""
+    completed = subprocess.run(
+        [sys.executable, "-m", "benchmarks.sb3_vector", "--throughput-only", "--rounds", str(rounds),
+         "--repeats", str(repeats)],
+        capture_output=True, text=True, check=True, cwd=Path(__file__).resolve().parent.parent,
+        env={**os.environ, "JAX_CPU_ENABLE_ASYNC_DISPATCH": "false"},
+    )
+    return json.loads(completed.stdout.strip().splitlines()[-1])
+
+
+def _ratio(ours: list[float], theirs: list[float], pick) -> float:
+    return round(pick(ours) / pick(theirs), 3)
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--timesteps", type=int, default=None)
+    parser.add_argument("--rounds", type=int, default=None, help="interleaved rounds (default 3, 1 with --quick)")
+    parser.add_argument("--repeats", type=int, default=None, help="repeats of each env loop (fastest kept)")
+    parser.add_argument("--throughput-only", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--out", type=Path, default=None, help="folder (default: benchmarks/results[/quick])")
     args = parser.parse_args(argv)
+    rounds = args.rounds or (1 if args.quick else 3)
+    repeats = args.repeats or (3 if args.quick else 5)
+    if args.throughput_only:
+        print(json.dumps(throughputs(rounds, repeats)))
+        return
     timesteps = args.timesteps or (4_000 if args.quick else 40_000)
-    order = ["gymnasium", "lerax_like"] if args.quick else ["gymnasium", "lerax_like", "lerax_like", "gymnasium"]
+    order = [kind for index in range(rounds)
+             for kind in (("gymnasium", "lerax_like") if index % 2 == 0 else ("lerax_like", "gymnasium"))]
     output = (args.out or results_dir(args.quick)) / "sb3_vector.json"
 
     import stable_baselines3
@@ -95,17 +137,25 @@ def main(argv=None) -> None:
         print(f"{kind:10s} {timesteps} steps in {run['seconds']:.1f} s, mean return {run['mean_return']:.1f} "
               f"(load {os.getloadavg()[0]:.1f})", flush=True)
 
-    throughput = {}
-    for n_envs in (8, 256):
-        steps = 400 if n_envs == 8 else 40
-        for kind in ("gymnasium", "lerax_like"):
-            throughput[f"{kind}_n{n_envs}"] = round(env_throughput(kind, n_envs, steps, 3 if args.quick else 7))
-        print(f"env steps/s at n_envs={n_envs}: SB3 DummyVecEnv {throughput[f'gymnasium_n{n_envs}']}, "
-              f"lerax_like {throughput[f'lerax_like_n{n_envs}']}", flush=True)
+    speeds = {"async": throughputs(rounds, repeats), "inline": inline_throughputs(rounds, repeats)}
+    for dispatch, by_kind in speeds.items():
+        for n_envs in (8, 256):
+            print(f"env steps/s at n_envs={n_envs}, {dispatch} dispatch: SB3 DummyVecEnv "
+                  f"{max(by_kind[f'gymnasium_n{n_envs}']):.0f}, lerax_like {max(by_kind[f'lerax_like_n{n_envs}']):.0f}",
+                  flush=True)
+    throughput = {kind: round(max(values)) for kind, values in speeds["async"].items()}
 
-    fastest = {kind: min(run["seconds"] for run in kind_runs) for kind, kind_runs in runs.items()}
+    seconds = {kind: [run["seconds"] for run in kind_runs] for kind, kind_runs in runs.items()}
+    fastest = {kind: min(values) for kind, values in seconds.items()}
     # PPO with seed 0 is deterministic on a CPU: every run of a kind learns the same policy.
     returns = {kind: kind_runs[0]["mean_return"] for kind, kind_runs in runs.items()}
+    speedups = {
+        f"{dispatch}_n{n_envs}": {
+            "fastest": _ratio(by_kind[f"lerax_like_n{n_envs}"], by_kind[f"gymnasium_n{n_envs}"], max),
+            "median": _ratio(by_kind[f"lerax_like_n{n_envs}"], by_kind[f"gymnasium_n{n_envs}"], statistics.median),
+        }
+        for dispatch, by_kind in speeds.items() for n_envs in (8, 256)
+    }
     result = {
         "date_utc": datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M"),
         "machine": f"{platform.machine()} {platform.system()}, {os.cpu_count()} cores",
@@ -114,23 +164,28 @@ def main(argv=None) -> None:
         "versions": {"stable_baselines3": stable_baselines3.__version__, "torch": torch.__version__,
                      "gymnasium": gymnasium.__version__, "lerax_like": lerax_like.__version__},
         "recipe": {"algorithm": "PPO", "policy": "MlpPolicy", "seed": 0, "n_steps": 256, "n_envs": 8,
-                   "total_timesteps": timesteps, "device": "cpu", "torch_threads": 1,
+                   "total_timesteps": timesteps, "device": "cpu", "torch_threads": 1, "rounds": rounds,
                    "evaluation": "20 episodes of Gymnasium's CartPole-v1, deterministic, seed 1000"},
         "order": order,
         "runs": runs,
         "fastest_seconds": fastest,
+        "median_seconds": {kind: statistics.median(values) for kind, values in seconds.items()},
         "mean_return": returns,
         "return_ratio_lerax_like_vs_sb3": round(returns["lerax_like"] / returns["gymnasium"], 3),
         "wall_time_ratio_lerax_like_vs_sb3": round(fastest["lerax_like"] / fastest["gymnasium"], 3),
+        "median_wall_time_ratio_lerax_like_vs_sb3": _ratio(seconds["lerax_like"], seconds["gymnasium"], statistics.median),
         "env_steps_per_s": throughput,
-        "env_speedup_n8": round(throughput["lerax_like_n8"] / throughput["gymnasium_n8"], 2),
-        "env_speedup_n256": round(throughput["lerax_like_n256"] / throughput["gymnasium_n256"], 2),
+        "env_steps_per_s_rounds": speeds,
+        "env_speedup": speedups,
+        "env_speedup_n8": speedups["async_n8"]["fastest"],
+        "env_speedup_n256": speedups["async_n256"]["fastest"],
     }
     output.parent.mkdir(parents=True, exist_ok=True)
     output.write_text(json.dumps(result, indent=2) + "\n")
     print(json.dumps({key: result[key] for key in ("mean_return", "fastest_seconds", "return_ratio_lerax_like_vs_sb3",
-                                                    "wall_time_ratio_lerax_like_vs_sb3", "env_speedup_n8",
-                                                    "env_speedup_n256", "load_average_after")}))
+                                                    "wall_time_ratio_lerax_like_vs_sb3",
+                                                    "median_wall_time_ratio_lerax_like_vs_sb3", "env_speedup",
+                                                    "load_average_after")}))
     print(f"wrote {output}")
 
 

@@ -72,7 +72,8 @@ from .scenes import (
 )
 from .spaces import Box as Box, Discrete as Discrete
 
-__version__ = "0.1.0"
+import importlib.metadata  # __version__ is pyproject.toml's, through the installed package's metadata
+__version__ = importlib.metadata.version("lerax_like")
 
 # The Gymnasium ids (`gymnasium.make("lerax_like/CartPole-v1")`), registered on import.
 from . import gym as gym

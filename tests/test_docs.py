@@ -56,17 +56,22 @@ def test_every_notebook_is_in_the_documentation_nav():
 NEW_SCENE_PAGE = ROOT / "docs" / "new_scene.md"
 
 
+# A block that the tests do not run says so, and why, in an HTML comment on the line before its
+# fence (not shown on the rendered page): `<!-- not run by tests/test_docs.py: the reason -->`.
+NOT_RUN = "<!-- not run by tests/test_docs.py:"
+
+
 def page_code(page: pathlib.Path) -> str:
-    """The page's Python code blocks, in order, as one script."""
-    blocks = re.findall(r"^```python\n(.*?)^```", page.read_text(), flags=re.S | re.M)
+    """The page's Python code blocks, in order, as one script (those marked `NOT_RUN` left out)."""
+    blocks = re.findall(r"^([^\n]*)\n```python\n(.*?)^```", page.read_text(), flags=re.S | re.M)
     assert blocks, f"{page.name} has no python code block"
-    return "\n".join(blocks)
+    return "\n".join(code for before, code in blocks if not before.startswith(NOT_RUN))
 
 
-def _run(arguments, cwd, pythonpath=()):
+def _run(arguments, cwd, pythonpath=(), environment=None):
     # This checkout's lerax_like first, whatever the current directory.
     paths = [*map(str, pythonpath), str(ROOT), os.environ.get("PYTHONPATH", "")]
-    env = {**os.environ, "JAX_PLATFORMS": "cpu", "PYTHONPATH": os.pathsep.join(paths)}
+    env = {**os.environ, "JAX_PLATFORMS": "cpu", "PYTHONPATH": os.pathsep.join(paths), **(environment or {})}
     return subprocess.run([sys.executable, *arguments], cwd=cwd, capture_output=True, text=True, timeout=900, env=env)
 
 
@@ -128,3 +133,38 @@ def test_the_new_scene_page_passes_the_scene_contract(tmp_path):
 
 def test_the_new_scene_page_is_in_the_documentation_nav():
     assert "new_scene.md" in (ROOT / "mkdocs.yml").read_text()
+
+
+# -- Every other page's Python code, and the README's, run as a reader would paste it -------
+
+CODE_PAGES = sorted(
+    page for page in [ROOT / "README.md", *(ROOT / "docs").glob("*.md")]
+    if page != NEW_SCENE_PAGE and "```python" in page.read_text() and page_code(page).strip()
+)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("page", CODE_PAGES, ids=lambda page: page.name)
+def test_the_pages_code_runs(page, tmp_path):
+    # In a process of its own from an empty folder, with HOME there, so that what a page writes
+    # (a cache folder under ~) lands in the test's folder.
+    script = tmp_path / f"page_{page.stem}.py"  # not gymnasium.py, which would shadow gymnasium
+    script.write_text(page_code(page) + "\nprint('ok')\n")
+    completed = _run([str(script)], cwd=tmp_path, environment={"HOME": str(tmp_path)})
+    assert completed.returncode == 0 and completed.stdout.strip().endswith("ok"), completed.stderr[-4000:]
+
+
+def test_every_page_with_code_is_run_and_in_the_nav():
+    nav = (ROOT / "mkdocs.yml").read_text()
+    pages = {page.name for page in (ROOT / "docs").glob("*.md")}
+    assert {page.name for page in CODE_PAGES} >= {"README.md", "gymnasium.md", "performance.md"}
+    assert not [name for name in pages if f" {name}" not in nav], "every docs page belongs in mkdocs.yml's nav"
+    for page in CODE_PAGES:
+        for reason in re.findall(re.escape(NOT_RUN) + r"(.*?)-->", page.read_text()):
+            assert len(reason.split()) >= 3, f"{page.name}: a block not run says why in words: {reason!r}"
+
+
+def test_the_readme_is_a_door():
+    # Diffrax's README is 82 lines and Gymnasium's 87; results, tables and limits live in docs/.
+    lines = len((ROOT / "README.md").read_text().splitlines())
+    assert lines <= 250, f"README.md has {lines} lines: move sections to docs/ pages"

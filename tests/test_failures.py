@@ -304,11 +304,13 @@ def test_worst_reward_bounds_every_regular_reward(name, options):
     assert rewards[regular].min() >= worst, (rewards[regular].min(), worst)
 
 
-def _inadmissible_action(env):
+# The failures below are built with `full_like` from the regular values, so that they keep their
+# dtype and (not weak) type: a weakly typed array would compile `_advance` again for its case.
+
+
+def _inadmissible_action(env, action):
     space = env.action_space
-    if isinstance(space, ll.Discrete):
-        return jnp.asarray(space.n)
-    return jnp.full(space.shape, jnp.nan)
+    return jnp.full_like(action, space.n if isinstance(space, ll.Discrete) else jnp.nan)
 
 
 def _nan_dynamics(env):
@@ -318,7 +320,7 @@ def _nan_dynamics(env):
 
 def _overflowing(env, state):
     # A state of 1e300 moved by its velocity of 1e300 for 1e10 time units overflows.
-    return eqx.tree_at(lambda e: e.dt, env, jnp.asarray(1e10)), ll.EnvState(y=jnp.full_like(state.y, 1e300), steps=state.steps)
+    return eqx.tree_at(lambda e: e.dt, env, jnp.full_like(env.dt, 1e10)), ll.EnvState(y=jnp.full_like(state.y, 1e300), steps=state.steps)
 
 
 FAILURES = ("inadmissible action", "nan dynamics", "overflow")
@@ -334,7 +336,7 @@ def test_a_forced_failure_pays_at_most_the_worst_reward(name, options, failure):
     state = env.reset(key=jax.random.key(3))[0]
     action = env.action_space.sample(key=jax.random.key(4))
     if failure == "inadmissible action":
-        action = _inadmissible_action(env)
+        action = _inadmissible_action(env, action)
     elif failure == "nan dynamics":
         env = _nan_dynamics(env)
     elif env.projects_state():
