@@ -68,15 +68,17 @@ def _batched_dense_states(env: AbstractEnv, starts, inputs, ts):
     """
     physics = env.physics
 
-    def one_step(y0, u):
+    def one_step(y0, u, k):
         return env.integrator.dense_states(
             physics.vector_field, y0, u, env.dt, ts,
             projection=env.project if env.projects_state() else None,
             velocity_indices=physics.velocity_indices,
+            t0=env.episode_time(EnvState(y=y0, steps=k)),
         )
 
     def trajectory(y_starts):
-        return jax.lax.map(lambda args: one_step(*args), (y_starts, inputs))
+        ks = jnp.arange(inputs.shape[0])
+        return jax.lax.map(lambda args: one_step(*args), (y_starts, inputs, ks))
 
     return jax.vmap(trajectory)(starts)
 
