@@ -10,7 +10,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..env import AbstractEnv, EnvState
+from ..env import AbstractEnv, EnvState, episode_time
 from ..integrate import solver_facts
 from ..physics import AbstractConservativeDynamics
 
@@ -73,7 +73,7 @@ def _batched_dense_states(env: AbstractEnv, starts, inputs, ts):
             physics.vector_field, y0, u, env.dt, ts,
             projection=env.project if env.projects_state() else None,
             velocity_indices=physics.velocity_indices,
-            t0=env.episode_time(EnvState(y=y0, steps=k)),
+            t0=episode_time(k, env.dt),
         )
 
     def trajectory(y_starts):

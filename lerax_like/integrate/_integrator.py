@@ -182,7 +182,7 @@ class Integrator(eqx.Module):
         """Solve `dy/dt = vector_field(t, y, u)` over `[t0, t0 + dt]` from `y0`.
 
         The solve runs over `[0, dt]` with the field read at `t0 + s` (`EpisodeTime`): `t0`
-        is the episode's time at the step's start (`AbstractEnv.episode_time`).
+        is the episode's time at the step's start (`lerax_like.env.episode_time`).
 
         `projection` (idempotent) maps states onto the admissible set (speed limits,
         walls, angle wrapping): it is applied to the end state whatever the solver, and
