@@ -238,6 +238,35 @@ class Integrator(eqx.Module):
         solution = self._solve(term, y0, u, dt, dt0, saveat=saveat, solver=solver)
         return solution.ys, solution.result == diffrax.RESULTS.successful
 
+    def failure(self, vector_field, y0: State, u: Input, dt: ScalarLike, **options) -> str:
+        """Why `integrate` with the same arguments (`options`: its keywords) fails, in words;
+        `""` if it does not.
+
+        The solve again, with diffrax's result kept: `"step budget exhausted"` (`max_steps`
+        solver steps within one env step), `"step size collapsed"`, `"root finder failed"`
+        (an implicit solver's Newton iteration), or `"non-finite state"` when the solve
+        ended but its state is not finite (a solver without an error estimate, or a
+        projection of one). For a study's failed row (`lerax_like.analysis`), not for a
+        hot loop: it runs eagerly, once.
+        """
+        dt = jnp.asarray(dt, dtype=y0.dtype)
+        projection = options.get("projection")
+        term, dt0 = self._term_and_first_step(
+            vector_field, dt, options.get("t0", 0.0), projection, options.get("velocity_indices")
+        )
+        solution = self._solve(term, y0, u, dt, dt0, adjoint=self.adjoint)
+        y1 = solution.ys[-1]
+        finite = bool(jnp.all(jnp.isfinite(y1))) and (projection is None or bool(jnp.all(jnp.isfinite(projection(y1)))))
+        words = (  # diffrax's results are not hashable: pairs, not a dict
+            (diffrax.RESULTS.successful, "" if finite else "non-finite state"),
+            (diffrax.RESULTS.max_steps_reached, f"step budget exhausted ({self.max_steps} solver steps per env step)"),
+            (diffrax.RESULTS.dt_min_reached, "step size collapsed (the controller's dtmin)"),
+        )
+        for result, text in words:
+            if bool(solution.result == result):
+                return text
+        return f"root finder failed or solver error: {diffrax.RESULTS[solution.result]}"
+
     def _solve(self, term, y0, u, dt, dt0, *, solver=None, **options) -> diffrax.Solution:
         """`diffeqsolve` over `[0, dt]` with this integrator's solver, controller and budget."""
         solver = self.solver if solver is None else solver
