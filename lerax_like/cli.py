@@ -1,6 +1,7 @@
 """The `lerax-like` command: argument parsing only; the work is in `lerax_like.analysis`.
 
-    lerax-like study CartPole [--quick] [--out DIR] [--solver NAME ...]
+    lerax-like study CartPole [--quick] [--out DIR] [--solver NAME ...] [--substeps N ...]
+    lerax-like study mymodule:MyScene --quick        (a scene class from the working directory)
     lerax-like gradients CartPole [--quick] [--out DIR] [--no-plot] [--solver NAME ...] [--scene-keyword KEY=NUMBER ...]
     lerax-like gradient-variance DoubleCartPole [--quick] [--solver NAME ...] [--out DIR] [--no-plot]
     lerax-like rollout CartPole [--steps N] [--seed S]
@@ -8,6 +9,7 @@
 """
 
 import argparse
+import dataclasses
 import os
 import sys
 import time
@@ -24,19 +26,65 @@ SOLVER_HELP = (
 )
 
 
+SCENE_HELP = (
+    "a registered scene ({scenes}), or 'module:Class' naming a scene class (a final AbstractEnv subclass) "
+    "in a module of the current directory or PYTHONPATH, which is registered under its class name"
+)
+
+
+def scene_from_spec(spec: str) -> str:
+    """The registered name of the scene a command line names: a name, or `module:Class`.
+
+    `module:Class` imports `module` as `solver_from_spec` does and registers `Class` (a
+    final `AbstractEnv` subclass) with `register_scene`, unless it registered itself.
+    Raises `ValueError` naming what is wrong.
+    """
+    from .env import AbstractEnv
+    from .integrate._spec import attribute_from_spec
+    from .scenes import SCENES, register_scene
+
+    if ":" not in spec:
+        if spec not in SCENES:
+            raise ValueError(f"unknown scene {spec!r}: {SCENE_HELP.format(scenes=', '.join(sorted(SCENES)))}")
+        return spec
+    value = attribute_from_spec(spec, "scene")
+    if not (isinstance(value, type) and issubclass(value, AbstractEnv)):
+        raise ValueError(f"scene {spec!r}: {value!r} is not a scene class (a subclass of lerax_like.AbstractEnv)")
+    try:
+        register_scene(value)
+    except (TypeError, ValueError) as error:
+        raise ValueError(f"scene {spec!r}: {error}") from None
+    return value.__name__
+
+
+def _working_directory_importable() -> None:
+    # `python -m lerax_like` puts the working directory on sys.path, but the `lerax-like`
+    # console script puts its own folder there instead: without this, `--solver
+    # mymethods:RALSTON3` (or the scene `mymodule:MyScene`) run beside mymethods.py would
+    # not find it.
+    if os.getcwd() not in sys.path and "" not in sys.path:
+        sys.path.insert(0, os.getcwd())
+
+
 def _solvers_from(arguments, command: str):
     """The solvers named by `--solver`, or None; a bad name is a usage error (exit 2)."""
     if not arguments.solver:
         return None
-    # `python -m lerax_like` puts the working directory on sys.path, but the `lerax-like`
-    # console script puts its own folder there instead: without this, `--solver
-    # mymethods:RALSTON3` run beside mymethods.py would not find it.
-    if os.getcwd() not in sys.path and "" not in sys.path:
-        sys.path.insert(0, os.getcwd())
+    _working_directory_importable()
     try:
         from .integrate import solver_from_spec
 
         return [solver_from_spec(spec) for spec in arguments.solver]
+    except ValueError as error:
+        print(f"lerax-like {command}: {error}", file=sys.stderr)
+        sys.exit(2)
+
+
+def _scene_from(arguments, command: str) -> str:
+    """The registered name of the scene argument (`module:Class` imported and registered); exit 2 if bad."""
+    _working_directory_importable()
+    try:
+        return scene_from_spec(arguments.scene)
     except ValueError as error:
         print(f"lerax-like {command}: {error}", file=sys.stderr)
         sys.exit(2)
@@ -54,9 +102,11 @@ def _scene_keywords(arguments, command: str) -> dict[str, float]:
 def _study(arguments) -> int:
     from .analysis import StudyConfig, run_study, sweeps_for, write_study
     from .analysis.report import VERDICT_TARGETS, cheapest_at, format_orders, format_table, matplotlib_available
-    from .analysis.verdict import verdict_line
+    from .analysis.sweeps import with_substeps
+    from .analysis.verdict import order_disagreements, verdict_line
     from .analysis.scenes import SCENES
 
+    arguments.scene = _scene_from(arguments, "study")
     overrides = {}
     if arguments.seed is not None:
         overrides["seed"] = arguments.seed
@@ -66,6 +116,12 @@ def _study(arguments) -> int:
     if arguments.scene_keyword:
         overrides["scene_kwargs"] = _scene_keywords(arguments, "study")
     config = StudyConfig.default(arguments.scene, quick=arguments.quick, **overrides)
+    if arguments.substeps:
+        try:
+            config = dataclasses.replace(config, sweeps=with_substeps(config.sweeps, arguments.substeps))
+        except ValueError as error:
+            print(f"lerax-like study: --substeps: {error}", file=sys.stderr)
+            return 2
     plot = not arguments.no_plot and matplotlib_available()
     start = time.perf_counter()
     result = run_study(config, progress=not arguments.no_progress)
@@ -80,6 +136,8 @@ def _study(arguments) -> int:
     for target in VERDICT_TARGETS:
         verdict = verdict_line(cheapest_at(result.rows, target))
         print(f"cheapest at error <= {target:g} ({config.schedules[0]} actions): {verdict}")
+    for line in order_disagreements(result.convergence_orders()):
+        print(f"order disagrees: {line}")
     return _finish(arguments, plot, elapsed, paths)
 
 
@@ -98,6 +156,7 @@ def _gradients(arguments) -> int:
     from .analysis.gradient_accuracy import GradientStudyConfig, run_gradient_study
     from .analysis.report import format_gradient_table, write_gradient_study
 
+    arguments.scene = _scene_from(arguments, "gradients")
     overrides = {"mode": arguments.mode}
     if arguments.seed is not None:
         overrides["seed"] = arguments.seed
@@ -144,6 +203,7 @@ def _gradient_variance(arguments) -> int:
         write_gradient_variance,
     )
 
+    arguments.scene = _scene_from(arguments, "gradient-variance")
     overrides = {}
     if arguments.seed is not None:
         overrides["seed"] = arguments.seed
@@ -249,13 +309,17 @@ def main(argv: list[str] | None = None) -> int:
         description="Work-precision study of solvers on a scene against a SciPy reference.",
         epilog="solver presets:\n" + format_solver_table(), formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    study.add_argument("scene", choices=sorted(SCENES))
+    scene_help = SCENE_HELP.format(scenes=", ".join(sorted(SCENES)))
+    study.add_argument("scene", metavar="SCENE", help=scene_help)
     study.add_argument("--quick", action="store_true", help="a small study, under a minute on 2 cores")
     study.add_argument("--out", default="lerax_like_study", help="folder for CSV, PNG and JSON (default: %(default)s)")
     study.add_argument("--seed", type=int, default=None, help="seed of initial states and actions (default 0)")
     study.add_argument("--no-progress", action="store_true", help="no progress bar")
     study.add_argument("--no-plot", action="store_true", help="skip the PNG (no matplotlib needed)")
     study.add_argument("--solver", action="append", metavar="NAME", help=SOLVER_HELP)
+    study.add_argument("--substeps", nargs="+", type=int, metavar="N",
+                       help="the sweep of fixed steps: N equal solver steps per env step (step dt / N), for every "
+                            "fixed-step solver (default: by order, e.g. 16 64 256 for Euler in --quick)")
     scene_keyword_help = ("a numeric keyword of the scene, repeatable: --scene-keyword restitution=0.8 "
                           "--scene-keyword track_limit=0.1 studies CartPoleContinuous with located walls, "
                           "--scene-keyword end_stop_stiffness=1e4 with penalty end stops")
@@ -265,7 +329,7 @@ def main(argv: list[str] | None = None) -> int:
     gradients = commands.add_parser(
         "gradients", help="gradient error against a tight reference vs run time, per solver and step"
     )
-    gradients.add_argument("scene", choices=sorted(SCENES), help="a scene that does not clip or wrap its state")
+    gradients.add_argument("scene", metavar="SCENE", help=scene_help + "; one that does not clip or wrap its state")
     gradients.add_argument("--quick", action="store_true", help="a small study, well under a minute on 2 cores")
     gradients.add_argument("--out", default="lerax_like_gradients", help="folder for CSV, PNG and JSON (default: %(default)s)")
     gradients.add_argument("--seed", type=int, default=None, help="seed of the initial state and actions (default 0)")
@@ -280,8 +344,8 @@ def main(argv: list[str] | None = None) -> int:
         "gradient-variance",
         help="first- vs zeroth-order gradient estimators against horizon: variance, bias, chaos, float32",
     )
-    variance.add_argument("scene", choices=sorted(SCENES),
-                          help="a scene with continuous actions that does not clip or wrap its state "
+    variance.add_argument("scene", metavar="SCENE",
+                          help=scene_help + "; one with continuous actions that does not clip or wrap its state "
                                "(CartPole is studied through CartPoleContinuous)")
     variance.add_argument("--quick", action="store_true",
                           help="horizons 10, 30, 100, 256 samples (default: 10 to 200, 512 samples)")

@@ -21,7 +21,7 @@ import jax.numpy as jnp
 import jax.random as jr
 
 from ._construct import construct_scene, integrator_keywords
-from ._episode import episode_limit
+from ._episode import episode_limit, episode_time
 from ._fields import POSITIVE, concrete, parameter
 from ._random import uniform
 from ._signatures import Constructor, scene_keywords
@@ -50,12 +50,10 @@ def time_step(default: float):
     return parameter(default, POSITIVE)
 
 
-
-
 class EnvState(eqx.Module):
     """The state of an env: the continuous state `y` and the env steps taken in this episode.
 
-    Time within the episode is `steps * dt`, never an accumulated sum.
+    Time within the episode is `steps * dt` (`episode_time`), never an accumulated sum.
     """
 
     y: State
@@ -226,12 +224,15 @@ class AbstractEnv(eqx.Module):
     def transition(
         self, state: EnvState, action: Array, *, key: Key | None
     ) -> tuple[EnvState, dict[str, Array]]:
-        """Integrate the physics over `[0, dt]` under the action's physical input (`evolve`)."""
+        """Integrate the physics over one step under the action's physical input (`evolve`)."""
         del key
         return self.evolve(state, self.physical_input(action))
 
     def evolve(self, state: EnvState, u: Input) -> tuple[EnvState, dict[str, Array]]:
-        """Integrate the physics over `[0, dt]` with the physical input `u` held constant.
+        """Integrate the physics over one step with the physical input `u` held constant.
+
+        The field reads the episode's time, `steps * dt + s` at `s` into the step; the solve
+        runs over `[0, dt]` (`EpisodeTime`): autonomous results do not change, bit for bit.
 
         The end state is projected by `project` (if the scene overrides it); with
         `SemiImplicitEuler`, the state after the velocity update is projected too.
@@ -247,22 +248,20 @@ class AbstractEnv(eqx.Module):
         """
         physics = self.physics
         contacts = getattr(self, "contacts", ())
+        t0 = episode_time(state.steps, self.dt)
         if contacts:
             from .hybrid import integrate_with_contacts
 
             y, info = integrate_with_contacts(
                 self.integrator, physics, self.dynamics, contacts, state.y, u, self.dt,
-                projection=self.project if self.projects_state() else None,
+                projection=self.project if self.projects_state() else None, t0=t0,
             )
             y = jnp.where(info["solver_ok"], y, state.y)
             return EnvState(y=y, steps=state.steps + 1), info
         y, info = self.integrator.integrate(
-            physics.vector_field,
-            state.y,
-            u,
-            self.dt,
+            physics.vector_field, state.y, u, self.dt,
             projection=self.project if self.projects_state() else None,
-            velocity_indices=physics.velocity_indices,
+            velocity_indices=physics.velocity_indices, t0=t0,
         )
         y = jnp.where(info["solver_ok"], y, state.y)
         return EnvState(y=y, steps=state.steps + 1), info
@@ -441,6 +440,7 @@ __all__ = [
     "StepKeys",
     "dynamics",
     "episode_limit",
+    "episode_time",
     "integrator",
     "rollout",
     "step_keys",

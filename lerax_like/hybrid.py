@@ -60,7 +60,7 @@ from .physics.contact import AbstractContact, AbstractImpulseContact, with_coord
 class GrazingGuardController(GuardedPIDController):
     """A `PIDController` that also rejects a trial step over which a gap dips below zero and back.
 
-    `guard(y0, y1, step, args)` says where, as a fraction of the step, the cubic Hermite
+    `guard(t0, t1, y0, y1, args)` says where, as a fraction of the step, the cubic Hermite
     interpolant of some gap dips below zero with both ends above it (1 where none does);
     the step is then retried up to there, where the event's sign change shows.
     """
@@ -71,7 +71,7 @@ class GrazingGuardController(GuardedPIDController):
         keep, next_t0, next_t1, made_jump, state, result = super().adapt_step_size(
             t0, t1, y0, y1_candidate, args, y_error, error_order, controller_state
         )
-        fraction = self.guard(y0, y1_candidate, t1 - t0, args)
+        fraction = self.guard(t0, t1, y0, y1_candidate, args)
         dip = fraction < 1
         keep = keep & ~dip
         next_t0 = jnp.where(dip, t0, next_t0)
@@ -101,11 +101,16 @@ def _hermite_dip(g0, g1, m0, m1):
 
 @final
 class _Surfaces(eqx.Module):
-    """The scene's contacts seen as one list of surfaces: gaps, rates, maps, rest."""
+    """The scene's contacts seen as one list of surfaces: gaps, rates, maps, rest.
+
+    Times `t` are the solve's, from the env step's start; the physics is read at the
+    episode's time `t0 + t`, as `Integrator.integrate` reads it (`EpisodeTime`).
+    """
 
     physics: AbstractDynamics
     dynamics: AbstractDynamics
     contacts: tuple[AbstractContact, ...]
+    t0: ScalarLike
 
     def gaps(self, y: State) -> Float[Array, " k"]:
         return jnp.concatenate([contact.gaps(self.dynamics, y) for contact in self.contacts])
@@ -116,7 +121,7 @@ class _Surfaces(eqx.Module):
     def vector_field(self, t: ScalarLike, y: State, args) -> State:
         """The physics, with the resting surfaces' constraint forces added."""
         u, resting = args
-        derivative = self.physics.vector_field(t, y, u)
+        derivative = self.physics.vector_field(self.t0 + t, y, u)
         # `unvmap_any`: true if any env of a vmapped batch rests, so that a batch in which
         # none does skips the constraint (a `cond` on a batched predicate runs both branches).
         return jax.lax.cond(
@@ -134,15 +139,15 @@ class _Surfaces(eqx.Module):
             start += size
         return derivative
 
-    def forces(self, y: State, u: Input, resting: Bool[Array, " k"]) -> Float[Array, " k"]:
+    def forces(self, t, y: State, u: Input, resting: Bool[Array, " k"]) -> Float[Array, " k"]:
         """The resting surfaces' contact forces (0 for the others)."""
         return jax.lax.cond(
-            eqxi.unvmap_any(jnp.any(resting)), lambda y, u, r: self._forces(y, u, r), lambda y, u, r: jnp.zeros_like(r, dtype=y.dtype),
-            y, u, resting,
+            eqxi.unvmap_any(jnp.any(resting)), lambda t, y, u, r: self._forces(t, y, u, r),
+            lambda t, y, u, r: jnp.zeros_like(r, dtype=y.dtype), t, y, u, resting,
         )
 
-    def _forces(self, y: State, u: Input, resting: Bool[Array, " k"]) -> Float[Array, " k"]:
-        derivative = self.physics.vector_field(0.0, y, u)
+    def _forces(self, t, y: State, u: Input, resting: Bool[Array, " k"]) -> Float[Array, " k"]:
+        derivative = self.physics.vector_field(self.t0 + t, y, u)
         forces, start = [], 0
         for contact, size in zip(self.contacts, self.sizes(y)):
             if isinstance(contact, AbstractImpulseContact):
@@ -162,16 +167,17 @@ class _Surfaces(eqx.Module):
 
     def condition(self, t, y: State, args, **kwargs) -> ScalarLike:
         """Positive between events: the free surfaces' gaps and the resting ones' forces."""
-        del t, kwargs
+        del kwargs
         u, resting = args
-        value = jnp.where(resting, self.forces(y, u, resting), self.gaps(y))
+        value = jnp.where(resting, self.forces(t, y, u, resting), self.gaps(y))
         return jnp.min(value)
 
-    def guard(self, y0: State, y1: State, step, args):
+    def guard(self, t0, t1, y0: State, y1: State, args):
         """The step fraction where a free gap's Hermite interpolant dips below zero (1 if none)."""
         _, resting = args
-        g0, rate0 = self.rates(0.0, y0, args)
-        g1, rate1 = self.rates(0.0, y1, args)
+        step = t1 - t0
+        g0, rate0 = self.rates(t0, y0, args)
+        g1, rate1 = self.rates(t1, y1, args)
         s, lowest = _hermite_dip(g0, g1, step * rate0, step * rate1)
         hidden = ~resting & (g0 > 0) & (g1 > 0) & (rate0 < 0) & (rate1 > 0) & (lowest < 0)
         # The retried step ends at the dip's lowest point, a little past it if the lowest
@@ -185,8 +191,8 @@ class _Surfaces(eqx.Module):
         q, _ = self.dynamics.coordinates(y) if self._mechanical else (y, None)
         return 64 * jnp.finfo(y.dtype).eps * (1 + jnp.max(jnp.abs(q)))
 
-    def settle(self, y: State, u: Input):
-        """At a segment's start: impacts, rest and release, and the re-placement just off the surfaces.
+    def settle(self, t, y: State, u: Input):
+        """At a segment's start `t`: impacts, rest and release, and the re-placement just off the surfaces.
 
         Returns the state, the resting surfaces and the number of impacts applied. All of it
         is skipped when no state (of a vmapped batch) touches a surface.
@@ -194,12 +200,12 @@ class _Surfaces(eqx.Module):
         touching = self.gaps(y) <= 2 * self.offset(y)
         return jax.lax.cond(
             eqxi.unvmap_any(jnp.any(touching)),
-            lambda y, u: self._settle(y, u),
-            lambda y, u: (y, jnp.zeros_like(touching), jnp.zeros((), dtype=int)),
-            y, u,
+            lambda t, y, u: self._settle(t, y, u),
+            lambda t, y, u: (y, jnp.zeros_like(touching), jnp.zeros((), dtype=int)),
+            t, y, u,
         )
 
-    def _settle(self, y: State, u: Input):
+    def _settle(self, t, y: State, u: Input):
         offset = self.offset(y)
         impacts = jnp.zeros((), dtype=int)
         start = 0
@@ -208,7 +214,7 @@ class _Surfaces(eqx.Module):
         for contact, size in zip(self.contacts, sizes):
             for local in range(size):
                 gap = contact.gaps(self.dynamics, y)[local]
-                rate = jax.jvp(lambda z: contact.gaps(self.dynamics, z)[local], (y,), (self.physics.vector_field(0.0, y, u),))[1]
+                rate = jax.jvp(lambda z: contact.gaps(self.dynamics, z)[local], (y,), (self.physics.vector_field(self.t0 + t, y, u),))[1]
                 touching = gap <= 2 * offset
                 hit = touching & (rate < 0)
                 y = jnp.where(hit, contact.impact(self.dynamics, y, local), y)
@@ -230,7 +236,7 @@ class _Surfaces(eqx.Module):
                 candidates_all.extend([jnp.asarray(False)] * size)
             start += size
         candidates = jnp.stack(candidates_all)
-        resting = candidates & (self.forces(y, u, candidates) > 0)
+        resting = candidates & (self.forces(t, y, u, candidates) > 0)
         # Re-place impulse contacts' touching surfaces just off them (a Newton step on the
         # positions along the gap's gradient: exact for flat surfaces).
         start = 0
@@ -260,11 +266,13 @@ def integrate_with_contacts(
     dt: ScalarLike,
     *,
     projection: Callable[[State], State] | None = None,
+    t0: ScalarLike = 0.0,
 ) -> tuple[State, dict[str, Array]]:
     """Solve over `[0, dt]` from `y0` with the impacts of `contacts` located as events (module docstring).
 
     `physics` is what is integrated (the dynamics with any force add-ons); `dynamics` the
-    scene's own physics module, whose `coordinates` and `energy` the contacts read.
+    scene's own physics module, whose `coordinates` and `energy` the contacts read. The
+    physics is read at the episode's time, `t0` plus the solve's (as `Integrator.integrate`).
     """
     adjoint = integrator.adjoint
     if isinstance(adjoint, diffrax.BacksolveAdjoint):
@@ -272,10 +280,10 @@ def integrate_with_contacts(
             "adjoint BacksolveAdjoint cannot differentiate through located events (diffrax refuses "
             "events with it): use with_adjoint(env, 'checkpoint') (reverse mode) or 'forward' (jacfwd)"
         )
-    surfaces = _Surfaces(physics=physics, dynamics=dynamics, contacts=tuple(contacts))
     max_events = max(contact.max_events for contact in contacts)
     dtype = y0.dtype
     dt = jnp.asarray(dt, dtype=dtype)
+    surfaces = _Surfaces(physics=physics, dynamics=dynamics, contacts=tuple(contacts), t0=jnp.asarray(t0, dtype=dtype))
     solver = integrator.solver
     if isinstance(solver, SemiImplicitEuler):
         term = ProjectedODETerm(surfaces.vector_field, velocity_indices=physics.velocity_indices)
@@ -301,7 +309,7 @@ def integrate_with_contacts(
     def solve_segment(carry):
         y, t, resting, ok, steps, rejected, impacts, first = carry
         done = t >= dt
-        settled, new_resting, hits = surfaces.settle(y, u)
+        settled, new_resting, hits = surfaces.settle(t, y, u)
         y = jnp.where(done, y, settled)
         resting = jnp.where(done, resting, new_resting)
         hits = jnp.where(done, 0, hits)

@@ -194,6 +194,57 @@ def test_jit_vmap_and_grad_through_twenty_steps(name):
     assert leaves and all(np.all(np.isfinite(np.asarray(leaf))) for leaf in leaves)
 
 
+class _Clock(eqx.Module):
+    """A scene's dynamics, recording the time `t` at which each call reads its vector field."""
+
+    dynamics: ll.AbstractDynamics
+
+    def vector_field(self, t, y, u):
+        jax.debug.callback(_TIMES.append, t)
+        return self.dynamics.vector_field(t, y, u)
+
+    def __getattr__(self, name):
+        # Everything else (velocity_indices, coordinates, a contact's reads) is the dynamics'.
+        if name == "dynamics" or name.startswith("__"):
+            raise AttributeError(name)
+        return getattr(self.dynamics, name)
+
+
+_TIMES = []
+
+
+@eqx.filter_jit
+def _step(env, state, action, key):
+    return env.step(state, action, key=key)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_the_vector_field_reads_the_episode_time(name):
+    # A driven force (`cos(w t)`) is right only if `t` runs on over the episode: step k reads
+    # the field within [k dt, (k + 1) dt], from k dt. A step whose clock restarts at 0 (or a
+    # scene whose own `evolve` forgets `t0`) reads [0, dt] and fails here.
+    env = ll.SCENES[name]()
+    clocked = eqx.tree_at(lambda e: e.dynamics, env, _Clock(env.dynamics))
+    state, _, _ = clocked.reset(key=jr.key(0))
+    assert float(ll.env.episode_time(state.steps, env.dt)) == 0.0
+    k = 7
+    state = ll.EnvState(y=state.y, steps=state.steps + k)
+    action = _sample_action(env, jr.key(1))
+    _TIMES.clear()
+    next_state, _, _, _, _, info = _step(clocked, state, action, jr.key(2))
+    jax.effects_barrier()
+    assert bool(info["solver_ok"]) and _TIMES
+    times, dt = np.asarray(_TIMES, dtype=np.float64), float(env.dt)
+    slack = 4 * np.spacing((k + 1) * dt)
+    assert times.min() == pytest.approx(k * dt, abs=slack), f"{name}: the step's first read is at t={times.min()}"
+    assert times.max() <= (k + 1) * dt + slack, f"{name}: the step read the field at t={times.max()}"
+    # The time limit's autoreset starts the next episode at time 0.
+    if env.max_episode_steps is not None:
+        last = ll.EnvState(y=state.y, steps=state.steps - k + env.max_episode_steps - 1)
+        fresh, _, _, _, truncated, _ = _step(clocked, last, action, jr.key(3))
+        assert bool(truncated) and float(ll.env.episode_time(fresh.steps, env.dt)) == 0.0
+
+
 def _tight(env):
     controller = diffrax.PIDController(rtol=1e-12, atol=1e-12)
     return eqx.tree_at(lambda e: e.integrator, env, ll.make_integrator("dopri8", controller, max_steps=100_000))

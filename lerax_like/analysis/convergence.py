@@ -11,6 +11,11 @@ import numpy as np
 # it say nothing about the method's order.
 ROUNDOFF_FLOOR = 1e-12
 
+ORDER_DISAGREEMENT = 0.3
+"""A fitted order further than this from the method's declared order is flagged
+(`disagrees`): the method, or the order it declares, is wrong, or the sweep misses the
+asymptotic range (which `points` and the figure tell apart)."""
+
 
 def fit_order(
     step_sizes: Sequence[float], errors: Sequence[float], *, floor: float = 0.0, ceiling: float = 1e-2
@@ -87,6 +92,8 @@ def convergence_orders(rows: Iterable[dict[str, Any]], *, ceiling: float = 1e-2)
         if entry["points"] < 2:
             entry["order"] = None  # JSON null, not NaN: there is no measurement
             entry["note"] = why_no_order(step_sizes, errors, floor=floor, ceiling=ceiling)
+        elif "method_order" in entry:
+            entry["disagrees"] = bool(abs(entry["order"] - entry["method_order"]) > ORDER_DISAGREEMENT)
         if "max_error" in group[0]:
             entry["max_error_order"], _ = fit_order(
                 step_sizes, [row["max_error"] for row in group], floor=floor, ceiling=ceiling

@@ -6,6 +6,7 @@ an optional dependency (`recording.pyplot` raises with the install hint).
 
 import math
 import os
+import zlib
 from collections.abc import Sequence
 from typing import Any
 
@@ -14,6 +15,72 @@ import numpy as np
 from .gradient_estimators import ESTIMATORS
 from .recording import finish_figure, pyplot, save_figure
 from .verdict import group_settings, timing_unresolved
+
+
+# One per preset, in `SOLVERS.names` order (euler, heun, midpoint, ralston, rk4, tsit5, dopri5,
+# dopri8, implicit_euler, kvaerno3, kvaerno4, kvaerno5, semi_implicit_euler): matplotlib's
+# colours as the studies drew them before (rk4 red, tsit5 purple, ...), no grey (the
+# reference floor's and the failed markers'), then darker ones.
+_PRESET_COLOURS = (
+    "#1f77b4", "#ff7f0e", "#2ca02c", "#bcbd22", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#17becf",
+    "#393b79", "#637939", "#843c39", "#000000",
+)
+# Any other solver (a user's): one of these, by a hash of its name that does not change between runs.
+_OTHER_COLOURS = ("#5254a3", "#8ca252", "#bd9e39", "#ad494a", "#a55194", "#6b6ecf", "#b5cf6b", "#e7ba52")
+
+
+def solver_colour(name: str) -> str:
+    """The colour of a solver in every figure: fixed by its name, whatever else is plotted.
+
+    A preset's by its place among the presets; another solver's (`Kutta3`, `Bosh3#2`) by a
+    hash of its name (CRC-32, stable between runs, unlike Python's `hash`).
+    """
+    from ..integrate import SOLVERS
+
+    presets = list(SOLVERS.names)
+    if name in presets and presets.index(name) < len(_PRESET_COLOURS):
+        return _PRESET_COLOURS[presets.index(name)]
+    return _OTHER_COLOURS[zlib.crc32(name.encode()) % len(_OTHER_COLOURS)]
+
+
+def _tidy_log_ticks(axis) -> None:
+    """Label a log axis at its decades only, or at 1, 2 and 5 times them where it spans
+    less than two decades: matplotlib otherwise labels every minor tick of a short axis,
+    and the labels run into each other."""
+    from matplotlib.ticker import LogLocator, NullFormatter
+
+    for which, (low, high) in (("x", axis.get_xlim()), ("y", axis.get_ylim())):
+        if getattr(axis, f"get_{which}scale")() != "log" or not (low > 0 and high > 0):
+            continue
+        ticks = getattr(axis, f"{which}axis")
+        if abs(math.log10(high / low)) < 2:
+            ticks.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
+        ticks.set_minor_formatter(NullFormatter())
+
+
+def _place_labels(figure, candidates) -> None:
+    """Annotate points, leaving out a label that would overlap one already placed.
+
+    `candidates` are `(axis, x, y, text, colour, series)` in drawing order. Drawn after the
+    layout, from the labels' real extents: the first label of a stack stays, and where the
+    stack is one series' settings (Dopri8's tolerances all at the floor), it names their
+    range ("1e-4..1e-12"); another series' label over it is left out (its point and colour
+    stay, and the legend names it).
+    """
+    renderer = figure.canvas.get_renderer()
+    placed = []  # (axis, extent, annotation, first text, series)
+    for axis, x, y, text, colour, series in candidates:
+        annotation = axis.annotate(text, (x, y), xytext=(3, 3), textcoords="offset points", fontsize=6,
+                                   color=colour, alpha=0.9)
+        extent = annotation.get_window_extent(renderer).expanded(1.05, 1.15)
+        clash = next((entry for entry in placed if entry[0] is axis and entry[1].overlaps(extent)), None)
+        if clash is None:
+            placed.append((axis, extent, annotation, text, series))
+            continue
+        annotation.remove()
+        first, last = clash[3].split("..")[0], text.split("..")[-1]
+        if clash[4] == series and last != first:
+            clash[2].set_text(f"{first}..{last}")
 
 
 def _point_label(row: dict[str, Any]) -> str:
@@ -113,35 +180,21 @@ def plot_work_precision(
     axes_by_panel = dict(zip(panels, axes.flat))
     for unused in list(axes.flat)[len(panels):]:
         unused.set_visible(False)
-    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    solver_names = list(dict.fromkeys(row["solver"] for row in selected + zero))
-    color_of = {name: colors[i % len(colors)] for i, name in enumerate(solver_names)}
     floor = max(row["reference_floor"] for row in selected)
     handles = {}
-    labelled: list[tuple] = []  # (log10 x, log10 y, annotation, first text, series) of each label placed
+    labels_to_place: list[tuple] = []  # (axis, x, y, text, colour, series), placed after the layout
 
     for label in labels:
         line = [row for row in selected if row["label"] == label]
         adaptive = line[0]["controller"] != "ConstantStepSize"
-        color = color_of[line[0]["solver"]]
+        color = solver_colour(line[0]["solver"])
         style = dict(marker="s" if adaptive else "o", linestyle="--" if adaptive else "-", color=color, ms=4.5, lw=1.3)
         errors = [max(row["error"], 1e-17) for row in line]  # an exact zero has no logarithm
         cost_axis = axes_by_panel["cost"]
         cost = [row["vector_field_evaluations"] if by_evaluations else row["attempted_steps"] for row in line]
         (handle,) = cost_axis.loglog(errors, cost, **style)
         handles[label] = handle
-        for row, x, y in zip(line, errors, cost):
-            # A label that would print over another (Heun's and the midpoint rule's steps
-            # sit on top of each other; dopri8's tolerances stack at the floor) is left to the first,
-            # which names the stack of one solver's settings ("1e-4..1e-12").
-            text, u, v = _point_label(row), math.log10(x), math.log10(y)
-            near = next((entry for entry in labelled if abs(u - entry[0]) < 0.4 and abs(v - entry[1]) < 0.12), None)
-            if near is None:
-                annotation = cost_axis.annotate(text, (x, y), xytext=(3, 3), textcoords="offset points",
-                                                fontsize=6, color=color, alpha=0.9)
-                labelled.append((u, v, annotation, text, label))
-            elif text != near[3] and label == near[4]:
-                near[2].set_text(f"{near[3]}..{text}")
+        labels_to_place += [(cost_axis, x, y, _point_label(row), color, label) for row, x, y in zip(line, errors, cost)]
         time_axis = axes_by_panel["time"]
         time_axis.loglog(errors, [row["seconds"] for row in line], **style)
         unresolved = [(x, row["seconds"]) for row, x in zip(line, errors) if timing_unresolved(row)]
@@ -164,7 +217,7 @@ def plot_work_precision(
         drift_axis = axes_by_panel["drift"]
         for label in dict.fromkeys(row["label"] for row in zero):
             line = [row for row in zero if row["label"] == label]
-            color = color_of[line[0]["solver"]]
+            color = solver_colour(line[0]["solver"])
             (handle,) = drift_axis.loglog([row["dt"] for row in line], [max(row["energy_drift"], 1e-17) for row in line],
                                           marker="o", linestyle="-", color=color, ms=4.5, lw=1.3)
             handles.setdefault(label, handle)
@@ -202,6 +255,18 @@ def plot_work_precision(
         step_axis.set_xlabel("solver step h (s)")
         step_axis.set_ylabel(error_label)
         step_axis.set_title("convergence, fixed steps (triangles: method order)", fontsize=10)
+    failed = group_settings(row for row in rows if row["schedule"] == schedule and not row["solver_ok"])
+    if failed:
+        # No error to place them by: at the right edge of the cost panel, at their cost.
+        edge = cost_axis.get_yaxis_transform()  # x in axes coordinates, y in data
+        for row in failed:
+            cost = row["vector_field_evaluations"] if by_evaluations else row["attempted_steps"]
+            if not (math.isfinite(cost) and cost > 0):
+                cost = row["attempted_steps"]
+            (marker,) = cost_axis.plot([1.0], [max(cost, 1.0)], transform=edge, marker="X", ms=8, linestyle="none",
+                                       color=solver_colour(row["solver"]), clip_on=False, zorder=4)
+            marker.set_gid("failed")
+        handles["failed (right edge; why below)"] = cost_axis.plot([], [], marker="X", linestyle="none", color="0.3")[0]
     if "steps" in axes_by_panel:
         steps_axis = axes_by_panel["steps"]
         steps_axis.set_xlabel("rtol (atol = rtol / 1000)")
@@ -209,15 +274,25 @@ def plot_work_precision(
         steps_axis.set_title("accepted (filled) and rejected (hollow, dotted) steps", fontsize=10)
     for axis in axes_by_panel.values():
         axis.grid(True, which="major", alpha=0.3)
+        _tidy_log_ticks(axis)
+    figure.failed_settings = [
+        {"label": row["label"], "setting": row["setting"], "failure": row.get("failure") or "unknown"} for row in failed
+    ]
+    notes = [f"failed: {f['label']} at {f['setting']}: {f['failure']}" for f in figure.failed_settings]
+    # The notes under the legend: a line of 7-point text is about 10 points of the figure's height.
+    notes_height = (len(notes) * 10 / (72 * figure.get_figheight()) + 0.01) if notes else 0.0
+    if notes:
+        figure.text(0.01, 0.005, "\n".join(notes), fontsize=7, color="0.2", va="bottom", ha="left")
     legend_labels = list(handles)
     figure.legend(list(handles.values()), legend_labels, loc="lower center", ncol=min(len(handles), 6),
-                  fontsize="small", frameon=False)
+                  fontsize="small", frameon=False, bbox_to_anchor=(0.5, notes_height))
     figure.legend_labels = legend_labels
     scene = selected[0]["scene"]
     title = title or f"{scene}: work-precision, {schedule} actions, {horizon} env steps of {selected[0]['env_dt']:g} s"
     figure.suptitle(title)
     legend_rows = (len(handles) + 5) // 6
-    figure.tight_layout(rect=(0, 0.035 * legend_rows + 0.02, 1, 1))
+    figure.tight_layout(rect=(0, 0.035 * legend_rows + 0.02 + notes_height, 1, 1))
+    _place_labels(figure, labels_to_place)
     return save_figure(figure, path)
 
 
@@ -242,7 +317,8 @@ def plot_gradient_work_precision(
         line = [row for row in selected if row["label"] == label]
         errors = [max(row["error"], 1e-16) for row in line]  # an exact zero has no logarithm
         adaptive = line[0]["controller"] != "ConstantStepSize"
-        style = dict(marker="s" if adaptive else "o", linestyle="--" if adaptive else "-")
+        style = dict(marker="s" if adaptive else "o", linestyle="--" if adaptive else "-",
+                     color=solver_colour(line[0]["solver"]))
         steps = [row["rtol"] if adaptive else row["dt"] for row in line]
         by_step.loglog(steps, errors, label=f"{label} (x: rtol)" if adaptive else label, **style)
         by_time.loglog([row["seconds"] for row in line], errors, label=label, **style)

@@ -138,8 +138,8 @@ def hybrid_reference_trajectories(
 ) -> tuple[np.ndarray, np.ndarray]:
     """As `dense_reference_trajectories`, through the impacts of the env's contacts.
 
-    One hybrid solve per initial state and env step (the input held over the step), each
-    restarted at every impact. Returns the states after each env step `(B, T, n)` and at
+    One hybrid solve per initial state and env step (the input held over the step, the
+    field read at the episode's time `k dt + s`), each restarted at every impact. Returns the states after each env step `(B, T, n)` and at
     `fractions` of each step `(B, T, len(fractions), n)`, from the segment covering each
     time (SciPy's dense output).
     """
@@ -151,8 +151,10 @@ def hybrid_reference_trajectories(
     inside = np.empty((len(y0s), len(inputs), len(fractions), y0s.shape[1]))
     for b, y in enumerate(y0s):
         for k, u in enumerate(inputs):
+            t0 = np.float64(k) * np.float64(dt)
             solution = hybrid_reference(
-                env.physics.vector_field, contacts, y, u, dt, method=method, rtol=rtol, atol=atol,
+                lambda s, y, u, t0=t0: env.physics.vector_field(t0 + s, y, u), contacts, y, u, dt,
+                method=method, rtol=rtol, atol=atol,
                 dense_output=len(fractions) > 0,
             )
             for j, time in enumerate(fractions * dt):

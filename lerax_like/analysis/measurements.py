@@ -10,7 +10,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..env import AbstractEnv, EnvState
+from ..env import AbstractEnv, EnvState, episode_time
 from ..integrate import solver_facts
 from ..physics import AbstractConservativeDynamics
 
@@ -48,6 +48,32 @@ def timed_runs(env: AbstractEnv, y0s, inputs, repeats: int):
     return tuple(np.asarray(x) for x in outputs), times
 
 
+def failure_reason(env: AbstractEnv, ys: np.ndarray, ok: np.ndarray, inputs) -> str:
+    """Why a batch of trajectories failed, in words, from its first failed env step.
+
+    `ys` `(B, T, n)` and `ok` `(B, T)` as `batched_trajectories` returns them: a failed
+    step keeps its pre-step state, so the failed solve is rerun from `ys[b, k]` and asked
+    why (`Integrator.failure`). `""` if no step failed.
+    """
+    failed = np.argwhere(~np.asarray(ok, dtype=bool))
+    if len(failed) == 0:
+        return ""
+    b, k = (int(i) for i in failed[0])
+    where = f"at env step {k} of trajectory {b}"
+    if getattr(env, "contacts", ()):
+        return f"hybrid step failed {where} (a segment's solve, an unlocated event, or more impacts than max_events)"
+    physics = env.physics
+    start = jnp.asarray(ys[b, k])
+    reason = env.integrator.failure(
+        physics.vector_field, start, jnp.asarray(inputs[k]), env.dt,
+        projection=env.project if env.projects_state() else None,
+        velocity_indices=physics.velocity_indices,
+        t0=episode_time(k, env.dt),
+    )
+    # A solve that succeeds alone but failed in the batch: the rerun's rounding differs.
+    return f"{reason or 'solve failed (not reproduced alone)'} {where}"
+
+
 def evaluations_per_step(solver: diffrax.AbstractSolver) -> tuple[int, int, int] | None:
     """`(per accepted step, per rejected step, once per solve)` vector-field evaluations,
     as `lerax_like.solver_facts` counts them; `None` for implicit solvers, whose count
@@ -68,15 +94,17 @@ def _batched_dense_states(env: AbstractEnv, starts, inputs, ts):
     """
     physics = env.physics
 
-    def one_step(y0, u):
+    def one_step(y0, u, k):
         return env.integrator.dense_states(
             physics.vector_field, y0, u, env.dt, ts,
             projection=env.project if env.projects_state() else None,
             velocity_indices=physics.velocity_indices,
+            t0=episode_time(k, env.dt),
         )
 
     def trajectory(y_starts):
-        return jax.lax.map(lambda args: one_step(*args), (y_starts, inputs))
+        ks = jnp.arange(inputs.shape[0])
+        return jax.lax.map(lambda args: one_step(*args), (y_starts, inputs, ks))
 
     return jax.vmap(trajectory)(starts)
 

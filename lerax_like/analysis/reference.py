@@ -1,9 +1,10 @@
 """Reference trajectories computed independently of diffrax, with SciPy's `solve_ivp`.
 
-The env holds each input constant over one env step and integrates `[0, dt]` afresh at
-every step (time restarts at 0), so the reference does exactly that: one `solve_ivp`
-call per env step, restarted at the step boundaries where the input jumps. Integrating
-across a jump would cost the reference its order at every boundary.
+The env holds each input constant over one env step and integrates each step afresh, the
+vector field read at the episode's time `k dt + s` at `s` into step `k`, so the reference
+does exactly that: one `solve_ivp` call per env step over `[0, dt]`, the field read at
+`k dt + s`, restarted at the step boundaries where the input jumps. Integrating across a
+jump would cost the reference its order at every boundary.
 
 The vector field is the dynamics' own `vector_field`, compiled with `jax.jit` and called
 from NumPy in float64. A batch of initial states is integrated as one stacked system, so
@@ -96,19 +97,21 @@ def _solve(dynamics, y0s, inputs, dt, *, method, rtol, atol, fractions):
         vector_field = jax.jit(stacked)
         jacobian = jax.jit(jax.jacfwd(stacked, argnums=1))
 
-        def f(t, y, u):
-            return np.asarray(vector_field(np.float64(t), y, u))
+        # `t0 + s` in float64, as the env's `EpisodeTime` reads it.
+        def f(s, y, u, t0):
+            return np.asarray(vector_field(np.float64(t0 + s), y, u))
 
-        def jac(t, y, u):
-            return np.asarray(jacobian(np.float64(t), y, u))
+        def jac(s, y, u, t0):
+            return np.asarray(jacobian(np.float64(t0 + s), y, u))
 
         options = {"jac": jac} if method in IMPLICIT_METHODS else {}
         y = np.reshape(y0s, (-1,))
         states = np.empty((len(inputs), batch * size), dtype=np.float64)
         inside = np.empty((len(inputs), len(fractions) if dense else 0, batch * size), dtype=np.float64)
         for k, u in enumerate(inputs):
+            t0 = np.float64(k) * np.float64(dt)
             solution = solve_ivp(
-                f, (0.0, float(dt)), y, method=method, rtol=rtol, atol=atol, args=(u,), dense_output=dense, **options
+                f, (0.0, float(dt)), y, method=method, rtol=rtol, atol=atol, args=(u, t0), dense_output=dense, **options
             )
             if not solution.success:
                 raise RuntimeError(f"reference solve ({method}) failed at env step {k}: {solution.message}")

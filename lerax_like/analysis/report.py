@@ -11,6 +11,7 @@ import os
 from collections.abc import Iterable, Sequence
 from typing import Any
 
+from .convergence import ORDER_DISAGREEMENT
 from .figures import (
     order_guide as order_guide,
     plot_gradient_work_precision as plot_gradient_work_precision,
@@ -29,6 +30,8 @@ from .verdict import (
     UNRESOLVED_SPREAD as UNRESOLVED_SPREAD,
     UNRESOLVED_TIMING_FACTOR as UNRESOLVED_TIMING_FACTOR,
     cheapest_at as cheapest_at,
+    failures as failures,
+    order_disagreements as order_disagreements,
     group_settings as group_settings,
     setting_name,
     timing_unresolved as timing_unresolved,
@@ -39,7 +42,7 @@ CSV_COLUMNS = (
     "scene", "schedule", "solver", "label", "order", "controller", "dt", "env_dt", "substeps", "rtol", "atol",
     "error", "max_error", "l2_error", "linf_error", "seconds", "seconds_spread", "timing_floor",
     "steps", "attempted_steps", "rejected_steps", "vector_field_evaluations",
-    "energy_drift", "momentum_drift", "solver_ok", "batch", "horizon", "dtype",
+    "energy_drift", "momentum_drift", "solver_ok", "failure", "batch", "horizon", "dtype",
     "reference_method", "reference_tolerance", "reference_floor", "dense_points",
 )
 """One row per schedule and solver setting. `solver` is the solver's name (a preset's, or
@@ -51,7 +54,9 @@ DiffEqDevTools' `L2` and `Linf`); all maximal over the batch. `seconds` is the m
 over repeats of the whole batch's run, `seconds_spread` (median - min) / min over the
 repeats (empty for a single repeat), `timing_floor` the time of an empty compiled call; `steps` accepted,
 `rejected_steps` rejected solver steps and `vector_field_evaluations` per trajectory;
-`dt` the solver's step (fixed-step rows)."""
+`dt` the solver's step (fixed-step rows); `failure`, where `solver_ok` is False, why the
+setting failed and where (`measurements.failure_reason`: step budget exhausted, step size
+collapsed, root finder failed, non-finite state)."""
 
 
 GRADIENT_CSV_COLUMNS = (
@@ -109,6 +114,8 @@ def write_json(result: StudyResult, path: "str | os.PathLike", **extra) -> None:
     record["cheapest_by_evaluations"] = {
         f"{t:.0e}": cheapest_at(result.rows, t, cost="vector_field_evaluations") for t in VERDICT_TARGETS
     }
+    record["order_disagreements"] = order_disagreements(record["convergence_orders"])
+    record["failures"] = failures(result.rows)
     record.update(extra)
     write_record(record, path)
 
@@ -122,22 +129,28 @@ def format_table(rows: Sequence[dict[str, Any]]) -> str:
 
     Settings whose errors and step counts coincide are one line (`group_settings`),
     named by their range; a time marked `~` is not resolved (`timing_unresolved`), as
-    the figure marks it hollow.
+    the figure marks it hollow. A failed setting shows `failed` for its errors and, in a
+    last column, why (`failure`).
     """
     header = (
         "schedule", "solver", "setting", "error", "max_error", "linf_error", "l2_error", "seconds",
         "steps (rejected)", "f-evals", "energy drift",
     )
     grouped = group_settings(rows)
+    any_failed = any(not row["solver_ok"] for row in grouped)
+    if any_failed:
+        header += ("failed because",)
     lines = []
     for row in grouped:
-        lines.append((
-            row["schedule"], row["label"], row["setting"], f"{row['error']:.2e}", f"{row['max_error']:.2e}",
-            f"{row.get('linf_error', math.nan):.2e}", f"{row.get('l2_error', math.nan):.2e}",
+        errors = (row["error"], row["max_error"], row.get("linf_error", math.nan), row.get("l2_error", math.nan))
+        line = (
+            row["schedule"], row["label"], row["setting"],
+            *(f"{e:.2e}" if row["solver_ok"] else "failed" for e in errors),
             f"{row['seconds']:.2e}" + ("~" if timing_unresolved(row) else ""),
             f"{row['steps']:.0f} ({row.get('rejected_steps', 0.0):.0f})",
             _number(row["vector_field_evaluations"], ".0f"), _number(row.get("energy_drift", math.nan)),
-        ))
+        )
+        lines.append(line + ((row.get("failure") or ("" if row["solver_ok"] else "unknown"),) if any_failed else ()))
     table = fixed_width_table(header, lines)
     if any(row["members"] > 1 for row in grouped):
         table += "\n.. a range of settings whose errors and step counts coincide: one setting"
@@ -161,7 +174,11 @@ def format_orders(orders: Sequence[dict[str, Any]]) -> str:
         if entry["order"] is None or math.isnan(entry["order"]):
             lines.append(f"{head} order {entry.get('note', 'not measured')}{expected}")
             continue
-        parts = [f"{head} order {entry['order']:.2f} ({entry['points']} points){expected}"]
+        flag = ""
+        if entry.get("disagrees"):
+            flag = (f"  !! disagrees with the declared order {entry['method_order']:g} by "
+                    f"{abs(entry['order'] - entry['method_order']):.2f} (> {ORDER_DISAGREEMENT:g})")
+        parts = [f"{head} order {entry['order']:.2f} ({entry['points']} points){expected}{flag}"]
         for name in ("energy_drift_order", "momentum_drift_order"):
             if name in entry and entry[name] is not None and not math.isnan(entry[name]):
                 parts.append(f"{name.replace('_order', '').replace('_', ' ')} order {entry[name]:.2f}")
@@ -176,7 +193,8 @@ def write_study(
     """Write `<stem>.csv`, `<stem>.json` and (if `plot`) `<stem>.png` into `out` (stem: the scene).
 
     Without matplotlib the plot is skipped, not an error: `paths` then has no `"png"`
-    and the JSON says `"figure": {"skipped": ...}`. The JSON records the legend's labels.
+    and the JSON says `"figure": {"skipped": ...}`. The JSON records the legend's labels
+    and the failed settings the figure marks (`"figure": {"failed": ...}`).
     """
     os.makedirs(out, exist_ok=True)
     stem = os.path.join(out, stem or result.config.scene)
@@ -188,7 +206,8 @@ def write_study(
             figure = plot_work_precision(result.rows, stem + ".png", title=title,
                                          fit_ceiling=result.config.fit_ceiling)
             paths["png"] = stem + ".png"
-            figure_record = {"path": os.path.basename(paths["png"]), "legend": figure.legend_labels}
+            figure_record = {"path": os.path.basename(paths["png"]), "legend": figure.legend_labels,
+                             "failed": figure.failed_settings}
         else:
             figure_record = {"skipped": f"matplotlib is not installed: {PLOT_HINT}"}
     write_json(result, paths["json"], figure=figure_record, **extra)

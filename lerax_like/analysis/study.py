@@ -40,6 +40,7 @@ from .measurements import (
     dense_errors,
     empty_call_seconds,
     evaluations_per_step as evaluations_per_step,
+    failure_reason,
     invariant_drifts,
     timed_runs,
 )
@@ -319,6 +320,7 @@ def _row(
         "energy_drift": math.nan,
         "momentum_drift": math.nan,
         "solver_ok": solver_ok,
+        "failure": "" if solver_ok else failure_reason(env, ys, ok, reference.inputs),
         "batch": int(y0s.shape[0]),
         "horizon": config.horizon,
         "dtype": str(ys.dtype),

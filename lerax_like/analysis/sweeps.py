@@ -104,6 +104,16 @@ class SolverSweep:
         ]
 
 
+def with_substeps(sweeps: Sequence[SolverSweep], substeps: Sequence[int]) -> tuple[SolverSweep, ...]:
+    """`sweeps` with every fixed-step sweep run at `substeps` instead (`--substeps`); the
+    adaptive ones unchanged. `ValueError` (naming `substeps`) for a count that is no
+    positive integer."""
+    if not substeps or any(int(k) != k or k < 1 for k in substeps):
+        raise ValueError(f"substeps must be positive integers, got {list(substeps)}")
+    steps = tuple(sorted(set(int(k) for k in substeps)))
+    return tuple(sweep if sweep.adaptive else dataclasses.replace(sweep, substeps=steps) for sweep in sweeps)
+
+
 def _powers_of_two(n: int) -> tuple[int, ...]:
     return tuple(2**i for i in range(n))
 

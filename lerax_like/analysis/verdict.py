@@ -161,6 +161,26 @@ def cheapest_at(
     }
 
 
+def order_disagreements(orders: Iterable[dict[str, Any]]) -> list[str]:
+    """A verdict on the fitted orders: one line per solver and schedule whose fitted order
+    disagrees with its declared one (`convergence.ORDER_DISAGREEMENT`), none if all agree."""
+    return [
+        f"{entry['solver']} ({entry['schedule']} actions): fitted order {entry['order']:.2f} over "
+        f"{entry['points']} points, declared {entry['method_order']:g}: the method or its declared order is wrong, "
+        "or the steps miss the asymptotic range"
+        for entry in orders if entry.get("disagrees")
+    ]
+
+
+def failures(rows: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The failed settings (coinciding ones merged): label, setting, schedule and why, in row order."""
+    return [
+        {"schedule": row["schedule"], "label": row["label"], "setting": row["setting"],
+         "failure": row.get("failure") or "unknown"}
+        for row in group_settings(rows) if not row["solver_ok"]
+    ]
+
+
 def verdict_line(best: dict[str, Any] | None) -> str:
     """A verdict of `cheapest_at` in words."""
     if best is None:

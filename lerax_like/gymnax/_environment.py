@@ -4,6 +4,7 @@ import math
 from typing import final
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 from gymnax.environments import environment as gymnax_environment, spaces as gymnax_spaces
 
@@ -93,7 +94,12 @@ class Environment(gymnax_environment.Environment):
 
 def _to_gymnax(space: AbstractSpace):
     if isinstance(space, Discrete):
-        return gymnax_spaces.Discrete(space.n)
+        discrete = gymnax_spaces.Discrete(space.n)
+        # gymnax 0.0.9 samples with `.astype(jnp.int_)`, int64 whatever the mode: without
+        # x64 (rejax trains in float32) every `sample` warned that int64 is truncated to
+        # int32. The integer type of the current mode is what `astype` gives there anyway.
+        discrete.dtype = jax.dtypes.canonicalize_dtype(jnp.int_)
+        return discrete
     return gymnax_spaces.Box(space.low, space.high, space.shape, space.low.dtype)
 
 

@@ -11,18 +11,18 @@ pairings that would silently produce garbage.
 from ._controller import GuardedPIDController as GuardedPIDController
 from ._dense import HermiteDenseOutput as HermiteDenseOutput
 from ._facts import SolverFacts as SolverFacts, has_error_estimate as has_error_estimate, solver_facts as solver_facts
-from ._integrator import Integrator as Integrator, make_integrator as make_integrator
+from ._integrator import EpisodeTime as EpisodeTime, Integrator as Integrator, make_integrator as make_integrator
 from ._presets import (
     SOLVERS as SOLVERS,
     SolverPreset as SolverPreset,
     SolverTable as SolverTable,
     describe_solver as describe_solver,
     register_solver as register_solver,
-    solver_from_spec as solver_from_spec,
     solver_instance as solver_instance,
     unregister_solver as unregister_solver,
 )
 from ._rk4 import RK4 as RK4
+from ._spec import solver_from_spec as solver_from_spec
 from ._semi_implicit import ProjectedODETerm as ProjectedODETerm, SemiImplicitEuler as SemiImplicitEuler
 from .._module_attributes import deprecated_names
 

@@ -19,8 +19,26 @@ from ._root_finder import uses_controller_tolerances
 from ._semi_implicit import ProjectedODETerm
 
 
+class EpisodeTime(eqx.Module):
+    """`vector_field` read at the episode's time: `t0 + s` at the solve's time `s`.
+
+    A step's solve runs over `[0, dt]`, whatever the episode's time `t0` at its start:
+    shifting the time inside the term rather than solving over `[t0, t0 + dt]` keeps the
+    solver's step sizes (which `t1 - t0` would round differently at every `t0`), so an
+    autonomous field's results do not depend on `t0`, bit for bit.
+    """
+
+    vector_field: Callable[[ScalarLike, State, Input], State]
+    t0: ScalarLike
+
+    def __call__(self, s: ScalarLike, y: State, u: Input) -> State:
+        return self.vector_field(self.t0 + s, y, u)
+
+
 class Integrator(eqx.Module):
     """How one env step integrates the vector field over `[0, dt]`, the input held fixed.
+
+    The field gets the episode's time (`t0 + s`, `EpisodeTime`) when the caller gives `t0`.
 
     - `solver`: any diffrax solver.
     - `stepsize_controller`: `ConstantStepSize` (then `substeps` equal steps per env
@@ -137,8 +155,9 @@ class Integrator(eqx.Module):
             and isinstance(self.adjoint, (diffrax.RecursiveCheckpointAdjoint, diffrax.ForwardMode))
         )
 
-    def _term_and_first_step(self, vector_field, dt, projection, velocity_indices):
+    def _term_and_first_step(self, vector_field, dt, t0, projection, velocity_indices):
         """The term to solve and the first step `integrate` and `dense_states` both take."""
+        vector_field = EpisodeTime(vector_field, jnp.asarray(t0, dtype=dt.dtype))
         # An adaptive controller picks its own first step (Hairer's heuristic). A first
         # trial step of the whole `dt` can overflow on a stiff problem, and the
         # PIDController turns the resulting NaN error into a NaN step size that rejects
@@ -158,8 +177,12 @@ class Integrator(eqx.Module):
         *,
         projection: Callable[[State], State] | None = None,
         velocity_indices: tuple[int, ...] | None = None,
+        t0: ScalarLike = 0.0,
     ) -> tuple[State, dict[str, Array]]:
-        """Solve `dy/dt = vector_field(t, y, u)` over `[0, dt]` from `y0`.
+        """Solve `dy/dt = vector_field(t, y, u)` over `[t0, t0 + dt]` from `y0`.
+
+        The solve runs over `[0, dt]` with the field read at `t0 + s` (`EpisodeTime`): `t0`
+        is the episode's time at the step's start (`lerax_like.env.episode_time`).
 
         `projection` (idempotent) maps states onto the admissible set (speed limits,
         walls, angle wrapping): it is applied to the end state whatever the solver, and
@@ -173,7 +196,7 @@ class Integrator(eqx.Module):
         finder diverged) or the state is not finite; the state is then not to be used.
         """
         dt = jnp.asarray(dt, dtype=y0.dtype)
-        term, dt0 = self._term_and_first_step(vector_field, dt, projection, velocity_indices)
+        term, dt0 = self._term_and_first_step(vector_field, dt, t0, projection, velocity_indices)
         if self._single_step:
             return self._step_once(term, y0, u, dt, projection)
         solution = self._solve(term, y0, u, dt, dt0, adjoint=self.adjoint)
@@ -192,8 +215,10 @@ class Integrator(eqx.Module):
         *,
         projection: Callable[[State], State] | None = None,
         velocity_indices: tuple[int, ...] | None = None,
+        t0: ScalarLike = 0.0,
     ) -> tuple[Array, BoolScalar]:
-        """The solver's own dense output of the solve `integrate` makes, at times `ts` in `[0, dt]`.
+        """The solver's own dense output of the solve `integrate` makes, at times `ts` in `[0, dt]`
+        from the step's start (the field read at `t0 + s`, as in `integrate`).
 
         Same solver, controller, first step and budget as `integrate`, so the same steps;
         between them the solver's interpolation: the methods' own for Tsit5, Dopri5 and
@@ -205,13 +230,42 @@ class Integrator(eqx.Module):
         `(len(ts), n)`, and whether the solve succeeded.
         """
         dt = jnp.asarray(dt, dtype=y0.dtype)
-        term, dt0 = self._term_and_first_step(vector_field, dt, projection, velocity_indices)
+        term, dt0 = self._term_and_first_step(vector_field, dt, t0, projection, velocity_indices)
         solver = self.solver
         if needs_hermite_dense_output(solver):
             solver = HermiteDenseOutput(solver)
         saveat = diffrax.SaveAt(ts=jnp.asarray(ts, dtype=y0.dtype))
         solution = self._solve(term, y0, u, dt, dt0, saveat=saveat, solver=solver)
         return solution.ys, solution.result == diffrax.RESULTS.successful
+
+    def failure(self, vector_field, y0: State, u: Input, dt: ScalarLike, **options) -> str:
+        """Why `integrate` with the same arguments (`options`: its keywords) fails, in words;
+        `""` if it does not.
+
+        The solve again, with diffrax's result kept: `"step budget exhausted"` (`max_steps`
+        solver steps within one env step), `"step size collapsed"`, `"root finder failed"`
+        (an implicit solver's Newton iteration), or `"non-finite state"` when the solve
+        ended but its state is not finite (a solver without an error estimate, or a
+        projection of one). For a study's failed row (`lerax_like.analysis`), not for a
+        hot loop: it runs eagerly, once.
+        """
+        dt = jnp.asarray(dt, dtype=y0.dtype)
+        projection = options.get("projection")
+        term, dt0 = self._term_and_first_step(
+            vector_field, dt, options.get("t0", 0.0), projection, options.get("velocity_indices")
+        )
+        solution = self._solve(term, y0, u, dt, dt0, adjoint=self.adjoint)
+        y1 = solution.ys[-1]
+        finite = bool(jnp.all(jnp.isfinite(y1))) and (projection is None or bool(jnp.all(jnp.isfinite(projection(y1)))))
+        words = (  # diffrax's results are not hashable: pairs, not a dict
+            (diffrax.RESULTS.successful, "" if finite else "non-finite state"),
+            (diffrax.RESULTS.max_steps_reached, f"step budget exhausted ({self.max_steps} solver steps per env step)"),
+            (diffrax.RESULTS.dt_min_reached, "step size collapsed (the controller's dtmin)"),
+        )
+        for result, text in words:
+            if bool(solution.result == result):
+                return text
+        return f"root finder failed or solver error: {diffrax.RESULTS[solution.result]}"
 
     def _solve(self, term, y0, u, dt, dt0, *, solver=None, **options) -> diffrax.Solution:
         """`diffeqsolve` over `[0, dt]` with this integrator's solver, controller and budget."""

@@ -1,7 +1,6 @@
 """Solvers by name: one table of presets, one lookup, one message for a name it does not hold."""
 
 import dataclasses
-import importlib
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import Any
 
@@ -297,32 +296,3 @@ def describe_solver(solver: "str | diffrax.AbstractSolver | type[diffrax.Abstrac
         type(solver).__name__, lambda: instance, facts.order or 0, facts.stages, facts.evaluations_per_step,
         facts.implicit, facts.error_estimate, adaptive(1e-6, 1e-9) if facts.error_estimate else diffrax.ConstantStepSize,
     )
-
-
-def solver_from_spec(spec: str) -> "str | diffrax.AbstractSolver":
-    """The solver a command line names: a preset name, or `module:attribute`.
-
-    `module:attribute` imports `module` (from `sys.path`: `PYTHONPATH`, and the current
-    directory, which the `lerax-like` command puts there) and takes `attribute`: a diffrax
-    solver instance, or a solver class built with no arguments (`diffrax:Bosh3`,
-    `my_methods:RALSTON3`). Returns the preset name (lower case) or the solver instance.
-    """
-    if not isinstance(spec, str) or not spec:
-        raise ValueError(f"solver must be a preset name or 'module:attribute', got {spec!r}")
-    if ":" not in spec:
-        return SOLVERS.find(spec).name
-    module_name, _, attribute = spec.partition(":")
-    try:
-        module = importlib.import_module(module_name)
-    except ImportError as error:
-        raise ValueError(f"solver {spec!r}: cannot import module {module_name!r} ({error})") from None
-    value: Any = module  # what the attribute path reaches: checked by `solver_instance`
-    for part in attribute.split("."):
-        try:
-            value = getattr(value, part)
-        except AttributeError:
-            raise ValueError(f"solver {spec!r}: module {module_name!r} has no attribute {attribute!r}") from None
-    try:
-        return solver_instance(value)
-    except TypeError as error:
-        raise ValueError(f"solver {spec!r}: {error}") from None

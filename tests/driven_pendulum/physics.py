@@ -1,0 +1,31 @@
+"""A damped pendulum driven by a periodic torque (Baker and Gollub, "Chaotic Dynamics", 1996)."""
+
+from typing import ClassVar, final
+
+import jax
+import jax.numpy as jnp
+
+from lerax_like import FINITE, NONNEGATIVE, POSITIVE, AbstractDynamics, parameter
+
+
+@final
+class DrivenPendulumDynamics(AbstractDynamics):
+    """`theta'' = -omega0^2 sin(theta) - damping theta' + drive_amplitude cos(drive_frequency t) + u[0]`.
+
+    `theta` from the downward vertical; `u[0]` an extra torque per unit moment of inertia.
+    State `y = [theta, theta_dot]`. Non-autonomous: `t` is the episode's time, so the drive
+    runs on over the episode's steps.
+    """
+
+    velocity_indices: ClassVar[tuple[int, ...]] = (1,)
+
+    natural_frequency: jax.Array = parameter(1.0, POSITIVE)
+    damping: jax.Array = parameter(0.5, NONNEGATIVE)
+    drive_amplitude: jax.Array = parameter(1.15, FINITE)
+    drive_frequency: jax.Array = parameter(2.0 / 3.0, NONNEGATIVE)
+
+    def vector_field(self, t, y: jax.Array, u: jax.Array) -> jax.Array:
+        theta, theta_dot = y
+        drive = self.drive_amplitude * jnp.cos(self.drive_frequency * t)
+        theta_acc = -self.natural_frequency**2 * jnp.sin(theta) - self.damping * theta_dot + drive + u[0]
+        return jnp.stack([theta_dot, theta_acc])
