@@ -24,6 +24,7 @@ from ._episode import episode_limit
 from ._fields import POSITIVE, assign_fields, concrete, parameter
 from ._addons import gather_addons
 from ._random import uniform
+from .gradients import forward_mode_hint
 from ._types import Array, BoolScalar, Float, Input, IntScalar, Key, Scalar, State
 from .integrate import Integrator, make_integrator
 from .physics import AbstractDynamics
@@ -269,20 +270,22 @@ class AbstractEnv(eqx.Module):
         if contacts:
             from .hybrid import integrate_with_contacts
 
-            y, info = integrate_with_contacts(
-                self.integrator, physics, self.dynamics, contacts, state.y, u, self.dt,
-                projection=self.project if self.projects_state() else None,
-            )
+            with forward_mode_hint(self.integrator.adjoint):
+                y, info = integrate_with_contacts(
+                    self.integrator, physics, self.dynamics, contacts, state.y, u, self.dt,
+                    projection=self.project if self.projects_state() else None,
+                )
             y = jnp.where(info["solver_ok"], y, state.y)
             return EnvState(y=y, steps=state.steps + 1), info
-        y, info = self.integrator.integrate(
-            physics.vector_field,
-            state.y,
-            u,
-            self.dt,
-            projection=self.project if self.projects_state() else None,
-            velocity_indices=physics.velocity_indices,
-        )
+        with forward_mode_hint(self.integrator.adjoint):
+            y, info = self.integrator.integrate(
+                physics.vector_field,
+                state.y,
+                u,
+                self.dt,
+                projection=self.project if self.projects_state() else None,
+                velocity_indices=physics.velocity_indices,
+            )
         y = jnp.where(info["solver_ok"], y, state.y)
         return EnvState(y=y, steps=state.steps + 1), info
 
@@ -479,7 +482,9 @@ def rollout(
         next_state, _, reward, terminated, info = env.advance(state, action, key=step_key)
         return next_state, (next_state.y, {**info, "reward": reward, "terminated": terminated})
 
-    _, (ys, infos) = jax.lax.scan(body, state, (actions, keys))
+    # Under jax.jacfwd, JAX refuses the adjoint's custom_vjp when it batches the scan's body.
+    with forward_mode_hint(env.integrator.adjoint):
+        _, (ys, infos) = jax.lax.scan(body, state, (actions, keys))
     return ys, infos
 
 
