@@ -267,25 +267,19 @@ class AbstractEnv(eqx.Module):
         """
         physics = self.physics
         contacts = getattr(self, "contacts", ())
-        if contacts:
-            from .hybrid import integrate_with_contacts
-
-            with forward_mode_hint(self.integrator.adjoint):
-                y, info = integrate_with_contacts(
-                    self.integrator, physics, self.dynamics, contacts, state.y, u, self.dt,
-                    projection=self.project if self.projects_state() else None,
-                )
-            y = jnp.where(info["solver_ok"], y, state.y)
-            return EnvState(y=y, steps=state.steps + 1), info
+        projection = self.project if self.projects_state() else None
         with forward_mode_hint(self.integrator.adjoint):
-            y, info = self.integrator.integrate(
-                physics.vector_field,
-                state.y,
-                u,
-                self.dt,
-                projection=self.project if self.projects_state() else None,
-                velocity_indices=physics.velocity_indices,
-            )
+            if contacts:
+                from .hybrid import integrate_with_contacts
+
+                y, info = integrate_with_contacts(
+                    self.integrator, physics, self.dynamics, contacts, state.y, u, self.dt, projection=projection
+                )
+            else:
+                y, info = self.integrator.integrate(
+                    physics.vector_field, state.y, u, self.dt, projection=projection,
+                    velocity_indices=physics.velocity_indices,
+                )
         y = jnp.where(info["solver_ok"], y, state.y)
         return EnvState(y=y, steps=state.steps + 1), info
 
