@@ -25,6 +25,7 @@ from ._episode import episode_limit, episode_time
 from ._fields import POSITIVE, concrete, parameter
 from ._random import uniform
 from ._signatures import Constructor, scene_keywords
+from .gradients import forward_mode_hint
 from ._types import Array, BoolScalar, Float, Input, IntScalar, Key, Scalar, State
 from .integrate import Integrator, make_integrator
 from .physics import AbstractDynamics
@@ -249,20 +250,20 @@ class AbstractEnv(eqx.Module):
         physics = self.physics
         contacts = getattr(self, "contacts", ())
         t0 = episode_time(state.steps, self.dt)
-        if contacts:
-            from .hybrid import integrate_with_contacts
+        projection = self.project if self.projects_state() else None
+        with forward_mode_hint(self.integrator.adjoint):
+            if contacts:
+                from .hybrid import integrate_with_contacts
 
-            y, info = integrate_with_contacts(
-                self.integrator, physics, self.dynamics, contacts, state.y, u, self.dt,
-                projection=self.project if self.projects_state() else None, t0=t0,
-            )
-            y = jnp.where(info["solver_ok"], y, state.y)
-            return EnvState(y=y, steps=state.steps + 1), info
-        y, info = self.integrator.integrate(
-            physics.vector_field, state.y, u, self.dt,
-            projection=self.project if self.projects_state() else None,
-            velocity_indices=physics.velocity_indices, t0=t0,
-        )
+                y, info = integrate_with_contacts(
+                    self.integrator, physics, self.dynamics, contacts, state.y, u, self.dt,
+                    projection=projection, t0=t0,
+                )
+            else:
+                y, info = self.integrator.integrate(
+                    physics.vector_field, state.y, u, self.dt, projection=projection,
+                    velocity_indices=physics.velocity_indices, t0=t0,
+                )
         y = jnp.where(info["solver_ok"], y, state.y)
         return EnvState(y=y, steps=state.steps + 1), info
 
@@ -429,7 +430,9 @@ def rollout(
         next_state, _, reward, terminated, info = env.advance(state, action, key=step_key)
         return next_state, (next_state.y, {**info, "reward": reward, "terminated": terminated})
 
-    _, (ys, infos) = jax.lax.scan(body, state, (actions, keys))
+    # Under jax.jacfwd, JAX refuses the adjoint's custom_vjp when it batches the scan's body.
+    with forward_mode_hint(env.integrator.adjoint):
+        _, (ys, infos) = jax.lax.scan(body, state, (actions, keys))
     return ys, infos
 
 

@@ -28,8 +28,17 @@ env's `Integrator`. Three are useful:
 
 Pick one with `with_adjoint(env, "forward")`, or build the scene with an `Integrator`:
 `CartPoleContinuous(solver=make_integrator("tsit5", adjoint=diffrax.ForwardMode()))`.
+
+`jax.jacfwd` (or `jax.jvp`) of a rollout or step under `"checkpoint"` fails wherever the
+step runs diffrax's solve loop (an adaptive or implicit solver, `substeps > 1`, located
+contacts): that loop is a `custom_vjp`, which JAX refuses to push tangents through. JAX's
+own message ("can't apply forward-mode autodiff (jvp) to a custom_vjp function") names no
+fix; `rollout` and the env step re-raise it with the fix named (`forward_mode_hint`).
+Where the refusal surfaces outside them (`jax.jacfwd(jax.jit(loss))`: JAX differentiates
+the compiled function after tracing it), JAX's own message is all there is.
 """
 
+import contextlib
 import warnings
 
 import diffrax
@@ -52,6 +61,28 @@ def make_adjoint(adjoint: "str | diffrax.AbstractAdjoint") -> diffrax.AbstractAd
         # The env's solves run with throw=False, which the backward solve would inherit.
         return diffrax.BacksolveAdjoint(throw=True)
     raise ValueError(f"adjoint must be one of {ADJOINTS} or a diffrax adjoint, got {adjoint!r}")
+
+
+# The text of JAX's refusal (jax 0.10; the same since 0.4) of forward mode through a custom_vjp.
+_JVP_OF_CUSTOM_VJP = "can't apply forward-mode autodiff (jvp) to a custom_vjp function"
+
+
+@contextlib.contextmanager
+def forward_mode_hint(adjoint: diffrax.AbstractAdjoint):
+    """Re-raise JAX's refusal of forward mode through a reverse-mode adjoint with the fix named.
+
+    Only under an adjoint other than `ForwardMode`, and once (a nested use passes it on).
+    """
+    try:
+        yield
+    except TypeError as error:
+        if _JVP_OF_CUSTOM_VJP not in str(error) or isinstance(adjoint, diffrax.ForwardMode) or "with_adjoint" in str(error):
+            raise
+        raise TypeError(
+            f"forward-mode autodiff (jax.jacfwd, jax.jvp) cannot pass the env's adjoint "
+            f"{type(adjoint).__name__}, which is reverse mode only (JAX: {error}). For forward mode use "
+            "env = lerax_like.with_adjoint(env, 'forward'); for reverse mode, jax.grad or jax.vjp."
+        ) from error
 
 
 def warn_if_silent(adjoint: diffrax.AbstractAdjoint) -> None:

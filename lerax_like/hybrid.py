@@ -56,6 +56,12 @@ from .physics import AbstractDynamics
 from .physics.contact import AbstractContact, AbstractImpulseContact, with_coordinates
 
 
+# The share of `dt` that an env which has finished its step integrates again, discarded, while
+# the other envs of a vmapped batch finish theirs (`integrate_with_contacts`): any positive
+# share keeps that solve finite; a small one keeps it to one step.
+_IDLE_FRACTION = 2.0**-10
+
+
 @final
 class GrazingGuardController(GuardedPIDController):
     """A `PIDController` that also rejects a trial step over which a gap dips below zero and back.
@@ -314,20 +320,31 @@ def integrate_with_contacts(
         resting = jnp.where(done, resting, new_resting)
         hits = jnp.where(done, 0, hits)
         first = jnp.where((hits > 0) & (first == jnp.inf), t, first)
+        # An env that has reached dt still runs this segment while another env of a vmapped
+        # batch has not, and diffrax's step loop runs its steps too, their results dropped by
+        # a select. Over the empty interval [dt, dt] those steps are not finite (diffrax
+        # 0.7.2's ConstantStepSize divides by its number of steps, 0 there), and in reverse
+        # mode the dropped value's zero cotangent times their infinite partial derivative is
+        # NaN: the "double where" trap, which reached the event's implicit adjoint as lineax's
+        # "non-finite input" (issue 29). So a finished env solves a short interval ending at
+        # dt instead, from its own state, and its result is dropped here: finite by
+        # construction, whatever the solver, controller and contact.
+        start = jnp.where(done, dt * (1 - _IDLE_FRACTION), t)
         solution = diffrax.diffeqsolve(
-            term, solver, t0=t, t1=dt, dt0=dt0, y0=y, args=(u, resting), stepsize_controller=controller,
+            term, solver, t0=start, t1=dt, dt0=dt0, y0=y, args=(u, resting), stepsize_controller=controller,
             max_steps=integrator.max_steps, adjoint=adjoint, event=event, throw=False,
         )
         result = solution.result
         solved = (result == diffrax.RESULTS.successful) | (result == diffrax.RESULTS.event_occurred)
-        accepted = solution.stats["num_accepted_steps"]
+        accepted = jnp.where(done, 0, solution.stats["num_accepted_steps"])
+        tried = jnp.where(done, 0, solution.stats["num_steps"])
         carry = (
-            solution.ys[-1],
+            jnp.where(done, y, solution.ys[-1]),
             jnp.where(done, dt, solution.ts[-1]),
             resting,
             ok & (done | solved),
             steps + accepted,
-            rejected + solution.stats["num_steps"] - accepted,
+            rejected + tried - accepted,
             impacts + hits,
             first,
         )
