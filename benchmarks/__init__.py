@@ -96,6 +96,10 @@ BENCHMARKS = {
         Benchmark("gradient_variance", "first- against zeroth-order gradient estimators against the horizon", (_STUDY, _PLOTS)),
         Benchmark("gradient_precision", "float32 against float64 gradients: the horizon where float32 loses the leading digit, per scene"),
         Benchmark("gradient_memory", "memory and time of a 1000-step rollout's gradient: storing against checkpointing"),
+        Benchmark(
+            "gradient_cost", "a batched rollout's gradient (reverse and forward mode) against a hand-written JAX floor",
+            (_GYMNAX,),
+        ),
         Benchmark("throughput", "env steps per second against the number of envs, beside gymnax and Gymnasium", (_GYMNAX, _PLOTS)),
         Benchmark("profile_step", "where the time of a vmapped env step goes, part by part, beside gymnax", (_GYMNAX,)),
         Benchmark("compile_time", "compile time of 1000-step scanned programs, beside gymnax", (_GYMNAX,)),

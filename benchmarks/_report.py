@@ -283,6 +283,69 @@ def gradient_memory(folder, link):
     return lines + _table(["solver", *methods, "gradient spread"], table)
 
 
+def _gradient_cost_bound(row) -> str:
+    """What the row's own measurements say about a goal it misses (empty when it meets them all)."""
+    reasons = []
+    if float(row["reverse_over_floor"]) > float(row["goal_over_floor"]):
+        reasons.append(f"our forward pass is already {float(row['forward_over_floor']):.3g}x the floor's")
+    if float(row["reverse_over_forward"]) > 15:
+        reasons.append(f"the floor's own reverse is {float(row['floor_reverse_over_forward']):.3g}x its forward")
+    if float(row["reverse_temp_bytes"]) >= 2**30 * int(row["envs"]) / 1024:
+        reasons.append(f"floor's memory {float(row['floor_reverse_temp_bytes']) / 2**20:.3g} MiB")
+    if float(row["reverse_compile_s"]) >= 30:
+        reasons.append(f"compile (the floor's: {_duration(row['floor_reverse_compile_s'])})")
+    return "; ".join(reasons)
+
+
+def gradient_cost(folder, link):
+    rows = _read_csv(folder, "gradient_cost.csv")
+    if rows is None:
+        return []
+
+    def ratio(value):
+        return f"{float(value):.3g}x" if value not in (None, "") else ""
+
+    def memory(value):
+        if value in (None, ""):
+            return ""
+        size = float(value) / 2**20
+        return f"{size / 1024:.3g} GiB" if size >= 1024 else f"{size:.3g} MiB"
+
+    table = []
+    for row in rows:
+        if row.get("error"):
+            table.append([row["scene"], row["solver"], "", "", "", "", "", "", "", "", "", "", row["error"]])
+            continue
+        jacfwd = _duration(row["jacfwd_s"]) if row.get("jacfwd_s") else (row.get("jacfwd_error") or "")
+        table.append([
+            row["scene"], row["solver"], _g(row["solver_steps_per_env_step"]), _duration(row["forward_s"]),
+            _duration(row["reverse_s"]), jacfwd, _duration(row["floor_reverse_s"]),
+            f"{ratio(row['reverse_over_floor'])} (goal {_g(row['goal_over_floor'])}x)", ratio(row["reverse_over_forward"]),
+            memory(row["reverse_temp_bytes"]), _duration(row["reverse_compile_s"]),
+            "yes" if row["meets_goals"] == "True" else "no", _gradient_cost_bound(row),
+        ])
+    first = rows[0]
+    lines = [
+        f"N = {first['envs']} envs from distinct resets, {first['steps']} steps, gradient with respect to "
+        "`gravity`; times are the min of the repeats after compiling. *Floor*: the same vector field and "
+        "solver steps in a hand-written `lax.scan`; *reverse / floor* compares the two value-and-gradient times; "
+        "memory is XLA's temporary memory of the compiled gradient.", "",
+    ]
+    lines += _table(
+        ["scene", "solver", "solver steps per env step", "forward", "reverse", "jacfwd", "floor reverse",
+         "reverse / floor", "reverse / forward", "temp memory", "compile", "goals met", "what bounds a missed goal"],
+        table,
+    )
+    pendulum = next((row for row in rows if row["scene"] == "Pendulum" and row.get("gymnax_forward_s")), None)
+    if pendulum is not None:
+        lines += [
+            f"gymnax Pendulum-v1, same starts and actions: forward {_duration(pendulum['gymnax_forward_s'])}, "
+            f"value and gradient {_duration(pendulum['gymnax_reverse_s'])}, gradient "
+            f"{_g(pendulum['gymnax_gradient'])} (ours {_g(pendulum['gradient'])}).", "",
+        ]
+    return lines
+
+
 def throughput(folder, link):
     lines = []
     for header, rows, stem in _runs(folder, "throughput"):
@@ -671,6 +734,7 @@ SECTIONS = {
     "contact_gradient_variance": contact_gradient_variance,
     "gradient_precision": gradient_precision,
     "gradient_memory": gradient_memory,
+    "gradient_cost": gradient_cost,
     "throughput": throughput,
     "profile_step": profile_step,
     "compile_time": compile_time,

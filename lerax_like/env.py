@@ -411,7 +411,7 @@ class AbstractEnv(eqx.Module):
 
 
 def rollout(
-    env: AbstractEnv, state: EnvState, actions: Array, *, key: Key | None = None
+    env: AbstractEnv, state: EnvState, actions: Array, *, key: Key | None = None, checkpoint: bool = True
 ) -> tuple[Float[Array, "T n"], dict[str, Array]]:
     """Apply `actions` (leading axis: time) with `env.advance`, without time limit or reset.
 
@@ -419,6 +419,10 @@ def rollout(
     rewards under `"reward"`, whether each step terminated under `"terminated"`). A failed
     step keeps its pre-step state, as in `step`. Pure, so `jax.grad` of a loss of the
     trajectory flows to parameters, actions, `dt` and the initial state.
+
+    `checkpoint` (default True): reverse mode keeps the states between env steps and recomputes
+    each step on the way back (`jax.checkpoint`); values and gradients are the same. Storing every
+    step's solver internals instead (`False`) took 75 GB for 1024 `BouncingBall`s x 100 steps.
     """
     if env.stochastic and key is None:
         raise ValueError(f"{type(env).__name__} is stochastic: rollout needs a key")
@@ -430,6 +434,8 @@ def rollout(
         next_state, _, reward, terminated, info = env.advance(state, action, key=step_key)
         return next_state, (next_state.y, {**info, "reward": reward, "terminated": terminated})
 
+    if checkpoint:  # no CSE barrier: inside `scan` none is needed (JAX's advice), and it costs
+        body = jax.checkpoint(body, prevent_cse=False)
     # Under jax.jacfwd, JAX refuses the adjoint's custom_vjp when it batches the scan's body.
     with forward_mode_hint(env.integrator.adjoint):
         _, (ys, infos) = jax.lax.scan(body, state, (actions, keys))
@@ -437,15 +443,6 @@ def rollout(
 
 
 __all__ = [
-    "AbstractEnv",
-    "Attempt",
-    "EnvState",
-    "StepKeys",
-    "dynamics",
-    "episode_limit",
-    "episode_time",
-    "integrator",
-    "rollout",
-    "step_keys",
-    "time_step",
+    "AbstractEnv", "Attempt", "EnvState", "StepKeys", "dynamics", "episode_limit",
+    "episode_time", "integrator", "rollout", "step_keys", "time_step",
 ]

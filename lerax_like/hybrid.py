@@ -310,7 +310,7 @@ def integrate_with_contacts(
     def segment(carry, _):
         # Segments after every env's last one are skipped whole (`unvmap_any`: over a batch).
         done = carry[1] >= dt
-        return jax.lax.cond(eqxi.unvmap_any(~done), solve_segment, lambda carry: carry, carry), None
+        return jax.lax.cond(eqxi.unvmap_any(~done), checkpointed_segment, lambda carry: carry, carry), None
 
     def solve_segment(carry):
         y, t, resting, ok, steps, rejected, impacts, first = carry
@@ -350,6 +350,10 @@ def integrate_with_contacts(
         )
         return carry
 
+    # Reverse mode keeps each segment's start only and recomputes the segment on the way back:
+    # otherwise it stores the internals (solver checkpoints, event search) of all
+    # `max_events + 1` segments, used or not. Values and gradients are unchanged.
+    checkpointed_segment = jax.checkpoint(solve_segment, prevent_cse=False)
     resting = jnp.zeros_like(surfaces.gaps(y0), dtype=bool)
     zero = jnp.zeros((), dtype=int)
     initial = (y0, jnp.zeros((), dtype), resting, jnp.asarray(True), zero, zero, zero, jnp.asarray(jnp.inf, dtype))

@@ -10,7 +10,7 @@ import jax.numpy as jnp
 
 from .._fields import check_count
 from .._types import Array, BoolScalar, Input, IntScalar, ScalarLike, State
-from ..gradients import warn_if_silent
+from ..gradients import sized_to_the_work, warn_if_silent
 from ._controller import GuardedPIDController
 from ._dense import HermiteDenseOutput, needs_hermite_dense_output
 from ._facts import has_error_estimate
@@ -114,6 +114,7 @@ class Integrator(eqx.Module):
         if not isinstance(adjoint, diffrax.AbstractAdjoint):
             raise TypeError(f"adjoint must be a diffrax adjoint, got {adjoint!r}")
         warn_if_silent(adjoint)
+        adjoint = sized_to_the_work(adjoint, max_steps)
         self.adjoint_arrays, self.adjoint_static = eqx.partition(adjoint, eqx.is_array)
         self.max_steps = max_steps
         self.substeps = substeps
