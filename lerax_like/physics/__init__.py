@@ -27,3 +27,6 @@ from .contact import (
     Walls as Walls,
 )
 from .ball import BallDynamics as BallDynamics, FloorAndWall as FloorAndWall
+from .walker import AbstractWalkerDynamics as AbstractWalkerDynamics, HeelStrike as HeelStrike
+from .simplest_walker import SimplestWalkerDynamics as SimplestWalkerDynamics
+from .compass_gait import CompassGaitDynamics as CompassGaitDynamics

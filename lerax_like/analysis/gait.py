@@ -1,0 +1,200 @@
+"""Walking gaits and their stability: the step-to-step return map of a passive walker, differentiated.
+
+The return map `P` takes a state just after a heel strike to the state just after the
+next one: the stance phase integrated (zero input) up to the heel strike, located as an
+event (`front_gap(y) = 0` falling, `lerax_like.physics.walker`), then the walker's
+`heel_strike` map. A period-one gait is a fixed point `y* = P(y*)`, found by Newton's
+method with the Jacobian `DP` by `jax.jacfwd` through the solve: the event time is
+differentiated implicitly, so `DP` is the derivative of the hybrid flow (the saltation
+term included), not a finite difference. The gait's stability is read off the
+eigenvalues of `DP(y*)` (its Floquet multipliers; a post-impact state confined to a
+surface adds zeros), and its sensitivities by the implicit function theorem:
+
+    dy*/dp = (I - DP)^-1 dP/dp,
+
+and for an eigenvalue `lambda` of `DP` with right and left eigenvectors `v`, `w`,
+`d lambda = w^H dDP v / (w^H v)` along the total derivative `dDP = D2P dy* + dDP/dp`;
+`d|lambda| = Re(conj(lambda) d lambda) / |lambda|`.
+
+Works for any dynamics with `front_gap` and `heel_strike` (the walkers, `RimlessWheel`).
+"""
+
+import dataclasses
+from typing import NamedTuple
+
+import diffrax
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optimistix
+
+from .._types import Array, Float, Scalar, State
+from ..physics import AbstractDynamics
+
+
+class Step(NamedTuple):
+    """One step of the return map: the state after the heel strike, the step's period, and whether it was found."""
+
+    state: Float[Array, " n"]
+    period: Scalar
+    ok: Array
+
+
+class Gait(NamedTuple):
+    """A period-one gait: the fixed point, its step period, the Jacobian of the return map there and its eigenvalues.
+
+    `eigenvalues` sorted by decreasing modulus; `residual` is `|P(y*) - y*|` (max norm);
+    `converged` whether Newton met its tolerance.
+    """
+
+    fixed_point: np.ndarray
+    period: float
+    jacobian: np.ndarray
+    eigenvalues: np.ndarray
+    residual: float
+    converged: bool
+
+    @property
+    def stable(self) -> bool:
+        return bool(np.max(np.abs(self.eigenvalues)) < 1)
+
+
+class Sensitivity(NamedTuple):
+    """Derivatives of a gait with respect to each physical parameter (by name): of the fixed point and of the
+    largest eigenvalue's modulus."""
+
+    fixed_point: dict[str, np.ndarray]
+    spectral_radius: dict[str, float]
+
+
+def _condition(t, y, args, **kwargs):
+    del t, kwargs
+    return args.front_gap(y)
+
+
+def step_to_step(
+    dynamics: AbstractDynamics, y0: State, *, max_time: float = 20.0, rtol: float = 1e-13, atol: float = 1e-13
+) -> Step:
+    """The return map `P(y0)`: from `y0` (just after a heel strike) to just after the next heel strike.
+
+    Integrated with `Dopri8` under a PID controller at `rtol`, `atol`, the heel strike
+    located by bisection to a few machine epsilons in time (as `lerax_like.hybrid` does).
+    `ok` is False when no heel strike happens within `max_time` (the walker fell, or
+    stood) or the solve failed. Differentiable in `y0` and in `dynamics` in forward mode
+    (`jax.jacfwd`, `jax.jvp`).
+    """
+    dtype = y0.dtype
+    tolerance = 4 * float(jnp.finfo(dtype).eps)
+    zero_input = jnp.zeros((1,), dtype)
+    term = diffrax.ODETerm(lambda t, y, args: args.vector_field(t, y, zero_input))
+    event = diffrax.Event(
+        _condition, root_finder=optimistix.Bisection(rtol=tolerance, atol=tolerance, flip=True), direction=False
+    )
+    solution = diffrax.diffeqsolve(
+        term, diffrax.Dopri8(), t0=0.0, t1=max_time, dt0=None, y0=y0, args=dynamics,
+        stepsize_controller=diffrax.PIDController(rtol=rtol, atol=atol), max_steps=100_000,
+        adjoint=diffrax.ForwardMode(), event=event, throw=False,
+    )
+    ok = solution.result == diffrax.RESULTS.event_occurred
+    return Step(dynamics.heel_strike(solution.ys[-1]), solution.ts[-1], ok)
+
+
+step_to_step_jit = eqx.filter_jit(step_to_step)
+
+
+def _map(dynamics, y):
+    return step_to_step(dynamics, y).state
+
+
+@eqx.filter_jit
+def _map_and_jacobian(dynamics, y):
+    step = step_to_step(dynamics, y)
+    return step, jax.jacfwd(lambda z: _map(dynamics, z))(y)
+
+
+def find_gait(dynamics: AbstractDynamics, guess: State, *, tolerance: float = 1e-13, max_iterations: int = 30) -> Gait:
+    """The period-one gait nearest `guess` by Newton's method on `P(y) - y`, the Jacobian by `jax.jacfwd`.
+
+    Converged when the Newton update and the residual are below `tolerance` (max norm).
+    """
+    y = jnp.asarray(guess, dtype=jnp.result_type(float))
+    converged = False
+    for _ in range(max_iterations):
+        step, jacobian = _map_and_jacobian(dynamics, y)
+        if not bool(step.ok):
+            break
+        residual = step.state - y
+        update = jnp.linalg.solve(jacobian - jnp.eye(y.shape[0], dtype=y.dtype), -residual)
+        y = y + update
+        if float(jnp.max(jnp.abs(update))) < tolerance and float(jnp.max(jnp.abs(residual))) < 1e3 * tolerance:
+            converged = True
+            break
+    step, jacobian = _map_and_jacobian(dynamics, y)
+    jacobian = np.asarray(jacobian)
+    eigenvalues = np.linalg.eigvals(jacobian)
+    eigenvalues = eigenvalues[np.argsort(-np.abs(eigenvalues), kind="stable")]
+    residual = float(jnp.max(jnp.abs(step.state - y)))
+    return Gait(np.asarray(y), float(step.period), jacobian, eigenvalues, residual, converged and bool(step.ok))
+
+
+def parameter_names(dynamics: AbstractDynamics) -> list[str]:
+    """The dynamics' physical parameters: its floating-point scalar fields."""
+    names = []
+    for field in dataclasses.fields(dynamics):
+        value = getattr(dynamics, field.name)
+        if eqx.is_inexact_array(value) and value.shape == ():
+            names.append(field.name)
+    return names
+
+
+def _with(dynamics, name, value):
+    return eqx.tree_at(lambda d: getattr(d, name), dynamics, value)
+
+
+@eqx.filter_jit
+def _parameter_derivative(dynamics, y, name_value, name: str):
+    """`dP/dp` at `(y, p)` for the one parameter `name`, by `jax.jvp` (forward mode)."""
+    return jax.jvp(lambda p: _map(_with(dynamics, name, p), y), (name_value,), (jnp.ones_like(name_value),))[1]
+
+
+def _jacobian_of(dynamics, y):
+    return jax.jacfwd(lambda z: _map(dynamics, z))(y)
+
+
+def _jacobian_derivative(dynamics, y, name, value, dy):
+    """The total derivative of `DP(y*(p), p)` along `p`: `D2P dy + dDP/dp`, by one `jax.jvp`."""
+    return jax.jvp(lambda z, p: _jacobian_of(_with(dynamics, name, p), z), (y, value), (dy, jnp.ones_like(value)))[1]
+
+
+_jacobian_derivative_jit = eqx.filter_jit(_jacobian_derivative)
+
+
+def gait_sensitivity(dynamics: AbstractDynamics, gait: Gait, names: list[str] | None = None) -> Sensitivity:
+    """Derivatives of `gait`'s fixed point and of its largest eigenvalue's modulus w.r.t. each parameter in `names`.
+
+    By the implicit function theorem (module docstring); `names` defaults to every
+    physical parameter of `dynamics` (`parameter_names`).
+    """
+    names = parameter_names(dynamics) if names is None else names
+    y = jnp.asarray(gait.fixed_point)
+    jacobian = gait.jacobian
+    n = jacobian.shape[0]
+    values, right = np.linalg.eig(jacobian)
+    index = int(np.argmax(np.abs(values)))
+    lam, v = values[index], right[:, index]
+    left_values, left = np.linalg.eig(jacobian.T)
+    w = left[:, int(np.argmin(np.abs(left_values - lam)))]  # w^T J = lam w^T
+    fixed, radius = {}, {}
+    for name in names:
+        value = getattr(dynamics, name)
+        partial = np.asarray(_parameter_derivative(dynamics, y, value, name))
+        dy = np.linalg.solve(np.eye(n) - jacobian, partial)
+        fixed[name] = dy
+        d_jacobian = np.asarray(_jacobian_derivative_jit(dynamics, y, name, value, jnp.asarray(dy)))
+        d_lam = (w @ d_jacobian @ v) / (w @ v)
+        radius[name] = float(np.real(np.conj(lam) * d_lam) / np.abs(lam))
+    return Sensitivity(fixed, radius)
+
+
+__all__ = ["Gait", "Sensitivity", "Step", "find_gait", "gait_sensitivity", "parameter_names", "step_to_step", "step_to_step_jit"]
