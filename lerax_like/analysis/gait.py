@@ -113,10 +113,12 @@ def _map_and_jacobian(dynamics, y):
     return step, jax.jacfwd(lambda z: _map(dynamics, z))(y)
 
 
-def find_gait(dynamics: AbstractDynamics, guess: State, *, tolerance: float = 1e-13, max_iterations: int = 30) -> Gait:
+def find_gait(dynamics: AbstractDynamics, guess: State, *, tolerance: float = 1e-12, max_iterations: int = 30) -> Gait:
     """The period-one gait nearest `guess` by Newton's method on `P(y) - y`, the Jacobian by `jax.jacfwd`.
 
-    Converged when the Newton update and the residual are below `tolerance` (max norm).
+    Converged when the Newton update is below `tolerance` and the residual below ten times
+    it (max norms): `P` itself is accurate to about 1e-13 over a step (`step_to_step`'s
+    tolerances), which an unstable gait's Newton step amplifies by `(I - DP)^-1`.
     """
     y = jnp.asarray(guess, dtype=jnp.result_type(float))
     converged = False
@@ -127,7 +129,7 @@ def find_gait(dynamics: AbstractDynamics, guess: State, *, tolerance: float = 1e
         residual = step.state - y
         update = jnp.linalg.solve(jacobian - jnp.eye(y.shape[0], dtype=y.dtype), -residual)
         y = y + update
-        if float(jnp.max(jnp.abs(update))) < tolerance and float(jnp.max(jnp.abs(residual))) < 1e3 * tolerance:
+        if float(jnp.max(jnp.abs(update))) < tolerance and float(jnp.max(jnp.abs(residual))) < 10 * tolerance:
             converged = True
             break
     step, jacobian = _map_and_jacobian(dynamics, y)
@@ -197,4 +199,47 @@ def gait_sensitivity(dynamics: AbstractDynamics, gait: Gait, names: list[str] | 
     return Sensitivity(fixed, radius)
 
 
-__all__ = ["Gait", "Sensitivity", "Step", "find_gait", "gait_sensitivity", "parameter_names", "step_to_step", "step_to_step_jit"]
+def walker_scenes() -> list[str]:
+    """The registered scenes whose dynamics are walkers (what `lerax-like gait` takes)."""
+    from ..physics.walker import AbstractWalkerDynamics
+    from .scenes import SCENES
+
+    def is_walker(scene) -> bool:
+        dynamics = scene.__annotations__.get("dynamics")
+        return isinstance(dynamics, type) and issubclass(dynamics, AbstractWalkerDynamics)
+
+    return sorted(name for name, scene in SCENES.items() if is_walker(scene))
+
+
+def scene_gait(name: str, keywords: dict[str, float] | None = None, *, sensitivity: bool = True) -> str:
+    """The period-one gait of the walker scene `name` (built with `keywords`), as text.
+
+    Newton starts at the middle of the scene's starting box (each walker's is about its
+    passive gait). With `sensitivity`, also the derivatives of the fixed point and of the
+    largest eigenvalue's modulus w.r.t. every physical parameter.
+    """
+    from .scenes import make_scene
+
+    jax.config.update("jax_enable_x64", True)  # a gait's digits need float64
+    scene = make_scene(name, **(keywords or {}))
+    low, high = scene.initial_bounds
+    dynamics = jax.tree.map(lambda leaf: jnp.asarray(leaf, jnp.float64) if eqx.is_inexact_array(leaf) else leaf, scene.dynamics)
+    gait = find_gait(dynamics, (jnp.asarray(low, jnp.float64) + jnp.asarray(high, jnp.float64)) / 2)
+    with np.printoptions(precision=12, suppress=False, linewidth=120):
+        lines = [
+            f"{name}: period-one gait ({'converged' if gait.converged else 'NOT converged'}, residual {gait.residual:.1e})",
+            f"  fixed point (just after heel strike): {gait.fixed_point}",
+            f"  step period: {gait.period:.12g}",
+            f"  eigenvalues of the return map's Jacobian: {gait.eigenvalues}",
+            f"  {'stable' if gait.stable else 'unstable'}: largest modulus {np.max(np.abs(gait.eigenvalues)):.12g}",
+        ]
+        if sensitivity and gait.converged:
+            derivatives = gait_sensitivity(dynamics, gait)
+            lines.append("  derivatives (implicit function theorem):")
+            for parameter, value in derivatives.fixed_point.items():
+                lines.append(f"    d fixed point / d {parameter}: {value}")
+                lines.append(f"    d |largest eigenvalue| / d {parameter}: {derivatives.spectral_radius[parameter]:.10g}")
+    return "\n".join(lines)
+
+
+__all__ = ["Gait", "Sensitivity", "Step", "find_gait", "gait_sensitivity", "parameter_names", "scene_gait", "step_to_step", "step_to_step_jit", "walker_scenes"]
