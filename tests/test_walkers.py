@@ -10,7 +10,6 @@ SymPy's Lagrangian) are typed from the papers here, not imported from the packag
 
 import re
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -22,7 +21,6 @@ from lerax_like.analysis.gait import find_gait, gait_sensitivity, step_to_step_j
 from lerax_like.physics.compass_gait import CompassGaitDynamics
 from lerax_like.physics.rimless_wheel import RimlessWheelDynamics
 from lerax_like.physics.simplest_walker import SimplestWalkerDynamics
-
 
 # Garcia et al.'s gaits at gamma = 0.009, (theta*, theta_dot*) just after heel strike, as
 # printed to 10 digits (and in Garcia's 1998 simulation code, 0.20031090049483,
@@ -137,7 +135,7 @@ def test_simplest_walker_stance_angle_scales_as_the_cube_root_of_slope():
     # (a start far down the decade from the paper's gait, scaled at once, is too slow to
     # carry the stance leg past the normal).
     slopes = np.geomspace(1e-2, 1e-4, 9)
-    gait, angles = None, []
+    gait, angles, previous = None, [], None
     for gamma in slopes:
         guess = _simplest_guess(gamma) if gait is None else _simplest_guess(gamma, gait.fixed_point[[0, 2]], previous)
         gait = find_gait(SimplestWalkerDynamics(slope=gamma), guess)
@@ -327,7 +325,10 @@ def test_compass_gait_vector_field_and_impact_against_sympy(compass_reference):
         np.testing.assert_allclose(np.asarray(walker.heel_strike(jnp.asarray(on_surface))), strike(on_surface, a, b, m, mh), rtol=1e-12, atol=1e-12)
 
 
-def _scipy_compass_step(y0, field, strike, a=0.5, b=0.5, m=5.0, mh=10.0, slope=np.deg2rad(3.0)):
+NOMINAL_SLOPE = np.pi / 60  # 3 degrees, the report's
+
+
+def _scipy_compass_step(y0, field, strike, a=0.5, b=0.5, m=5.0, mh=10.0, slope=NOMINAL_SLOPE):
     """One step of the compass gait in SciPy: to the first landing of the swing foot ahead of a stance leg past the normal."""
 
     def rates(t, y):

@@ -88,9 +88,10 @@ def step_to_step(
     is off the vector field by about 1e-9 relative (Dopri8 at 1e-13), enough to spoil the
     saltation term (`P`'s Jacobian then misses a rimless wheel's closed form by 6e-10). So
     the located time `T` is held fixed, the stance integrated again to `T` (a step's end, not
-    an interpolant), and the time's dependence restored by one Newton step on the gap,
-    `T* = T - gap(y(T)) / gap_rate(y(T))`, whose value is `T` and whose derivative is the
-    implicit function theorem's, with `y(T*) = y(T) + f(y(T)) (T* - T)`.
+    an interpolant), and the time's dependence restored by Newton steps on the gap,
+    `T' = T - gap(y(T)) / gap_rate(y(T))`, whose value is `T` and whose derivatives are the
+    implicit function theorem's: one step gives the first derivatives, two the second,
+    with `y(T + s) = y(T) + f s + (Df f) s**2 / 2`.
     """
     dtype = y0.dtype
     tolerance = 4 * float(jnp.finfo(dtype).eps)
@@ -111,11 +112,22 @@ def step_to_step(
         stepsize_controller=controller, max_steps=100_000, adjoint=diffrax.ForwardMode(), throw=False,
     )
     y = solution.ys[-1]
-    rate = dynamics.vector_field(time, y, zero_input)
-    gap, gap_rate = jax.jvp(dynamics.front_gap, (y,), (rate,))
-    shift = -gap / gap_rate
+    field = lambda z: dynamics.vector_field(time, z, zero_input)
+    rate, curvature = jax.jvp(field, (y,), (field(y),))
+
+    def later(shift):  # y(T + shift) to second order in the shift
+        return y + rate * shift + curvature * shift**2 / 2
+
+    def newton(shift):
+        z = later(shift)
+        gap, gap_rate = jax.jvp(dynamics.front_gap, (z,), (rate + curvature * shift,))
+        return shift - gap / gap_rate
+
+    # Two Newton steps: the first gives the time's first derivatives exactly, the second
+    # its second derivatives (what `gait_sensitivity` reads through the Jacobian).
+    shift = newton(newton(jnp.zeros_like(time)))
     ok = ok & (solution.result == diffrax.RESULTS.successful)
-    return Step(dynamics.heel_strike(y + rate * shift), time + shift, ok)
+    return Step(dynamics.heel_strike(later(shift)), time + shift, ok)
 
 
 step_to_step_jit = eqx.filter_jit(step_to_step)

@@ -9,7 +9,6 @@ from .._fields import Range, parameter
 from .._types import Input, Scalar, ScalarLike, State
 from .walker import AbstractWalkerDynamics, swing_gap
 
-
 SLOPE = Range(
     "in [0, pi/2) (allowed range [0, pi/2), radians downhill)",
     lambda a: bool(np.all(np.isfinite(a)) and np.all((a >= 0) & (a < np.pi / 2))),

@@ -11,7 +11,6 @@ from ..physics.simplest_walker import SimplestWalkerDynamics
 from ..physics.walker import HeelStrike
 from ._walker import AbstractWalkerEnv
 
-
 FALL_ANGLE = Range("in (0, pi/2] (allowed range (0, pi/2], radians)", lambda a: bool((a > 0) & (a <= jnp.pi / 2)))
 
 
