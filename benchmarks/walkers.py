@@ -61,19 +61,46 @@ def continue_in_slope(make, gait, slopes):
     return points
 
 
-def period_doubling(make, gamma, guess, iterations=8):
-    """The slope where the largest eigenvalue's modulus is 1, by Newton on the slope with d|lambda|/dslope."""
-    for _ in range(iterations):
-        dynamics = make(gamma)
-        gait = find_gait(dynamics, jnp.asarray(guess))
+def period_doubling(make, gamma, guess, step=1e-3, iterations=40):
+    """The slope where the largest eigenvalue's modulus reaches 1, from a stable `gamma` upwards.
+
+    Bracketed first (slopes `step` apart, each start predicted by dy*/dslope), then
+    Newton on the slope with d|lambda|/dslope, kept inside the bracket by bisection: the
+    modulus is not smooth where a complex pair turns real, so plain Newton can leave.
+    """
+    low, high, gaits = gamma, None, {}
+
+    def solve(slope, start):
+        dynamics = make(slope)
+        gait = find_gait(dynamics, jnp.asarray(start))
         sensitivity = gait_sensitivity(dynamics, gait, ["slope"])
-        radius = float(np.max(np.abs(gait.eigenvalues)))
-        step = (1 - radius) / sensitivity.spectral_radius["slope"]
-        guess = gait.fixed_point + sensitivity.fixed_point["slope"] * step
-        gamma += step
-        if abs(step) < 1e-11:
+        gaits[slope] = (gait, sensitivity)
+        return gait, sensitivity
+
+    gait, sensitivity = solve(low, guess)
+    while high is None:
+        trial = low + step
+        other, other_sensitivity = solve(trial, gait.fixed_point + sensitivity.fixed_point["slope"] * step)
+        if not other.converged:
+            step /= 2
+            continue
+        if np.max(np.abs(other.eigenvalues)) >= 1:
+            high = trial
+        else:
+            low, gait, sensitivity = trial, other, other_sensitivity
+    slope = high
+    for _ in range(iterations):
+        gait, sensitivity = gaits[slope] if slope in gaits else solve(slope, gait.fixed_point)
+        excess = float(np.max(np.abs(gait.eigenvalues))) - 1
+        if excess >= 0:
+            high = slope
+        else:
+            low = slope
+        if abs(excess) < 1e-12 or high - low < 1e-13:
             break
-    return gamma, gait
+        newton = slope - excess / sensitivity.spectral_radius["slope"]
+        slope = newton if low < newton < high else (low + high) / 2
+    return slope, gait
 
 
 def compass_cycle(dynamics, y0, period, samples=400):
