@@ -373,3 +373,17 @@ def test_gait_command_prints_the_rimless_wheels_cycle(capsys):
     numbers = lambda label: [float(x) for x in re.findall(r"-?\d+\.\d+(?:e[-+]\d+)?", output.split(label)[1].splitlines()[0])]
     assert abs(numbers("fixed point (just after heel strike):")[1] - float(wheel.limit_cycle_speed)) < 1e-10
     assert abs(numbers("largest modulus")[0] - float(np.cos(2 * wheel.spoke_half_angle) ** 2)) < 1e-10
+
+
+@pytest.mark.slow
+def test_compass_gait_stability_is_blind_to_the_scales_of_time_mass_and_length(compass_gait):
+    """What the implicit derivatives must show, whatever the gait: the eigenvalues do not depend on gravity (it only
+    sets the time scale), nor on the scale of the masses, nor on the scale of the lengths with gravity scaled alike."""
+    dynamics, gait = compass_gait
+    radius = gait_sensitivity(dynamics, gait).spectral_radius
+    scale = max(abs(value) for value in radius.values())
+    m, m_h, a, b, g = (float(getattr(dynamics, name)) for name in ("leg_mass", "hip_mass", "lower_length", "upper_length", "gravity"))
+    assert abs(g * radius["gravity"]) < 1e-9 * scale
+    assert abs(m * radius["leg_mass"] + m_h * radius["hip_mass"]) < 1e-9 * scale
+    assert abs(a * radius["lower_length"] + b * radius["upper_length"] + g * radius["gravity"]) < 1e-9 * scale
+    assert abs(radius["lower_length"]) > 1e-3 * scale  # not blind to the mass's place on the leg
