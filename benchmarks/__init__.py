@@ -108,6 +108,7 @@ BENCHMARKS = {
         Benchmark("gym_vector", "the Gymnasium-layer vector env of every id against the XLA floor and Gymnasium's vector envs"),
         Benchmark("contact_study", "work-precision through contact: located walls' fitted orders beside penalty end stops'", (_STUDY, _PLOTS)),
         Benchmark("rimless_wheel", "the passive rimless wheel's limit cycle from the env's located impacts, to 1e-9", (_STUDY,)),
+        Benchmark("walkers", "the simplest walker's and the compass gait's gaits against slope, eigenvalues, period doubling", (_STUDY,)),
         Benchmark("stability", "stiff and extreme cases: status and error per solver, and Kvaerno5's root finders", (_STUDY,)),
         Benchmark("domain_randomisation", "a policy trained over pole masses against one trained at the nominal mass", (_OPTAX, _STUDY)),
         Benchmark("ppo_baseline", "PPO (Stable-Baselines3) on the policy-learning task", (_SB3,)),

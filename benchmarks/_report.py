@@ -694,6 +694,28 @@ def rimless_wheel(folder, link):
     return lines
 
 
+def walkers(folder, link):
+    data = _read_json(folder, "walkers.json")
+    if data is None:
+        return []
+    simplest, compass = data["simplest_walker"], data["compass_gait"]
+    rows = []
+    for name in ("long_period", "short_period"):
+        point = min(simplest[name], key=lambda point: abs(point["slope"] - 0.009))
+        rows.append([f"simplest walker, {name.replace('_', '-')}", f"{point['slope']:.6g}",
+                     ", ".join(f"{value:.10f}" for value in point["fixed_point"]), f"{point['period']:.8f}",
+                     f"{point['spectral_radius']:.6f}"])
+    nominal = compass["nominal"]
+    rows.append(["compass gait, nominal", f"{nominal['slope']:.6g}", ", ".join(f"{value:.10f}" for value in nominal["fixed_point"]),
+                 f"{nominal['period']:.8f}", f"{nominal['spectral_radius']:.6f}"])
+    lines = _table(["gait", "slope (rad)", "fixed point", "step period", "largest |eigenvalue|"], rows)
+    lines += [f"First period doubling: simplest walker at gamma = {simplest['period_doubling']['slope']:.8f} rad, "
+              f"compass gait at {compass['period_doubling']['slope_degrees']:.6f} deg.", ""]
+    if (folder / "walkers.png").exists():
+        lines += [f"![gaits against slope; compass-gait limit cycle]({link}/walkers.png)", ""]
+    return lines
+
+
 def contact(folder, link):
     rows = _read_csv(folder, "contact.csv")
     if rows is None:
@@ -743,6 +765,7 @@ SECTIONS = {
     "gym_vector": gym_vector,
     "contact_study": contact_study,
     "rimless_wheel": rimless_wheel,
+    "walkers": walkers,
     "stability": stability,
     "domain_randomisation": domain_randomisation,
     "ppo_baseline": ppo_baseline,

@@ -6,6 +6,7 @@
     lerax-like gradient-variance DoubleCartPole [--quick] [--solver NAME ...] [--out DIR] [--no-plot]
     lerax-like rollout CartPole [--steps N] [--seed S]
     lerax-like solvers
+    lerax-like gait SimplestWalker [--scene-keyword slope=0.01] [--no-sensitivity]
 """
 
 import argparse
@@ -269,6 +270,14 @@ def _rollout(arguments) -> int:
     return 0
 
 
+def _gait(arguments) -> int:
+    from .analysis.gait import scene_gait
+
+    keywords = _scene_keywords(arguments, "gait") if arguments.scene_keyword else {}
+    print(scene_gait(arguments.scene, keywords, sensitivity=not arguments.no_sensitivity))
+    return 0
+
+
 def format_solver_table() -> str:
     """The solver presets with their orders, as `lerax-like solvers` prints them."""
     from .integrate import SOLVERS
@@ -369,6 +378,17 @@ def main(argv: list[str] | None = None) -> int:
     rollout.add_argument("--steps", type=int, default=200)
     rollout.add_argument("--seed", type=int, default=0)
     rollout.set_defaults(run=_rollout)
+
+    from .analysis.gait import walker_scenes
+
+    gait = commands.add_parser(
+        "gait", help="a walker's period-one gait: fixed point, step period, eigenvalues, their derivatives"
+    )
+    gait.add_argument("scene", choices=walker_scenes())
+    gait.add_argument("--scene-keyword", action="append", metavar="KEY=NUMBER",
+                      help="a numeric keyword of the scene, repeatable: --scene-keyword slope=0.012")
+    gait.add_argument("--no-sensitivity", action="store_true", help="skip the derivatives w.r.t. the parameters")
+    gait.set_defaults(run=_gait)
 
     solvers = commands.add_parser("solvers", help="the solver presets: order, stages, error estimate, controller")
     solvers.set_defaults(run=_solvers)

@@ -28,3 +28,6 @@ from .contact import (
 )
 from .ball import BallDynamics as BallDynamics, FloorAndWall as FloorAndWall
 from .rimless_wheel import RimlessWheelDynamics as RimlessWheelDynamics, SpokeContact as SpokeContact
+from .walker import AbstractWalkerDynamics as AbstractWalkerDynamics, HeelStrike as HeelStrike
+from .simplest_walker import SimplestWalkerDynamics as SimplestWalkerDynamics
+from .compass_gait import CompassGaitDynamics as CompassGaitDynamics

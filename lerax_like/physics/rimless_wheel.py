@@ -5,8 +5,8 @@ import numpy as np
 
 from .._fields import POSITIVE, Range, option, parameter
 from .._types import Array, BoolScalar, Float, Input, Scalar, ScalarLike, State
-from ._base import AbstractDynamics
 from .contact import AbstractContact
+from .walker import AbstractWalkerDynamics
 
 
 # Two neighbouring spokes must not both be downhill of the hub, or no stance exists.
@@ -21,7 +21,7 @@ SLOPE = Range(
 
 
 @final
-class RimlessWheelDynamics(AbstractDynamics):
+class RimlessWheelDynamics(AbstractWalkerDynamics):
     """A rimless wheel on a slope: the stance phase, its contact surfaces and its impact map.
 
     A point mass `mass` at the hub of spokes of length `leg_length`, `2 * spoke_half_angle`
@@ -103,6 +103,12 @@ class RimlessWheelDynamics(AbstractDynamics):
         theta, theta_dot = y
         alpha = self.spoke_half_angle
         return jnp.stack([theta - 2 * alpha, jnp.cos(2 * alpha) * theta_dot])
+
+    def stance_angle(self, y: State) -> Scalar:
+        return y[0] - self.slope
+
+    def hip_speed(self, y: State) -> Scalar:
+        return self.leg_length * jnp.cos(y[0] - self.slope) * y[1]
 
     def rear_strike(self, y: State) -> State:
         """The state just after the rear spoke lands (the wheel rolled back)."""

@@ -27,6 +27,8 @@ _REGISTERED = (
     "planar_quadrotor:PlanarQuadrotor",
     "bouncing_ball:BouncingBall",
     "rimless_wheel:RimlessWheel",
+    "simplest_walker:SimplestWalker",
+    "compass_gait:CompassGait",
 )
 
 

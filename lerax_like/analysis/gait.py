@@ -1,0 +1,278 @@
+"""Walking gaits and their stability: the step-to-step return map of a passive walker, differentiated.
+
+The return map `P` takes a state just after a heel strike to the state just after the
+next one: the stance phase integrated (zero input) up to the heel strike, located as an
+event (`front_gap(y) = 0` falling, `lerax_like.physics.walker`), then the walker's
+`heel_strike` map. A period-one gait is a fixed point `y* = P(y*)`, found by Newton's
+method with the Jacobian `DP` by `jax.jacfwd` through the solve: the event time is
+differentiated implicitly, so `DP` is the derivative of the hybrid flow (the saltation
+term included), not a finite difference. The gait's stability is read off the
+eigenvalues of `DP(y*)` (its Floquet multipliers; a post-impact state confined to a
+surface adds zeros), and its sensitivities by the implicit function theorem:
+
+    dy*/dp = (I - DP)^-1 dP/dp,
+
+and for an eigenvalue `lambda` of `DP` with right and left eigenvectors `v`, `w`,
+`d lambda = w^H dDP v / (w^H v)` along the total derivative `dDP = D2P dy* + dDP/dp`;
+`d|lambda| = Re(conj(lambda) d lambda) / |lambda|`.
+
+Works for any dynamics with `front_gap` and `heel_strike` (the walkers, `RimlessWheel`).
+"""
+
+import dataclasses
+from typing import NamedTuple
+
+import diffrax
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optimistix
+
+from .._types import Array, Float, Scalar, State
+from ..physics import AbstractDynamics
+
+
+class Step(NamedTuple):
+    """One step of the return map: the state after the heel strike, the step's period, and whether it was found."""
+
+    state: Float[Array, " n"]
+    period: Scalar
+    ok: Array
+
+
+class Gait(NamedTuple):
+    """A period-one gait: the fixed point, its step period, the Jacobian of the return map there and its eigenvalues.
+
+    `eigenvalues` sorted by decreasing modulus; `residual` is `|P(y*) - y*|` (max norm);
+    `converged` whether Newton met its tolerance.
+    """
+
+    fixed_point: np.ndarray
+    period: float
+    jacobian: np.ndarray
+    eigenvalues: np.ndarray
+    residual: float
+    converged: bool
+
+    @property
+    def stable(self) -> bool:
+        return bool(np.max(np.abs(self.eigenvalues)) < 1)
+
+
+class Sensitivity(NamedTuple):
+    """Derivatives of a gait with respect to each physical parameter (by name): of the fixed point and of the
+    largest eigenvalue's modulus."""
+
+    fixed_point: dict[str, np.ndarray]
+    spectral_radius: dict[str, float]
+
+
+def _condition(t, y, args, **kwargs):
+    del t, kwargs
+    return args.front_gap(y)
+
+
+def step_to_step(
+    dynamics: AbstractDynamics, y0: State, *, max_time: float = 20.0, rtol: float = 1e-13, atol: float = 1e-13
+) -> Step:
+    """The return map `P(y0)`: from `y0` (just after a heel strike) to just after the next heel strike.
+
+    Integrated with `Dopri8` under a PID controller at `rtol`, `atol`, the heel strike
+    located by bisection to a few machine epsilons in time (as `lerax_like.hybrid` does).
+    `ok` is False when no heel strike happens within `max_time` (the walker fell, or
+    stood) or the solve failed. Differentiable in `y0` and in `dynamics` in forward mode
+    (`jax.jacfwd`, `jax.jvp`).
+
+    Derivatives: the event's solve ends on the solver's interpolant, whose time derivative
+    is off the vector field by about 1e-9 relative (Dopri8 at 1e-13), enough to spoil the
+    saltation term (`P`'s Jacobian then misses a rimless wheel's closed form by 6e-10). So
+    the located time `T` is held fixed, the stance integrated again to `T` (a step's end, not
+    an interpolant), and the time's dependence restored by Newton steps on the gap,
+    `T' = T - gap(y(T)) / gap_rate(y(T))`, whose value is `T` and whose derivatives are the
+    implicit function theorem's: one step gives the first derivatives, two the second,
+    with `y(T + s) = y(T) + f s + (Df f) s**2 / 2`.
+    """
+    dtype = y0.dtype
+    tolerance = 4 * float(jnp.finfo(dtype).eps)
+    zero_input = jnp.zeros((1,), dtype)
+    term = diffrax.ODETerm(lambda t, y, args: args.vector_field(t, y, zero_input))
+    event = diffrax.Event(
+        _condition, root_finder=optimistix.Bisection(rtol=tolerance, atol=tolerance, flip=True), direction=False
+    )
+    controller = diffrax.PIDController(rtol=rtol, atol=atol)
+    located = diffrax.diffeqsolve(
+        term, diffrax.Dopri8(), t0=0.0, t1=max_time, dt0=None, y0=jax.lax.stop_gradient(y0),
+        args=jax.lax.stop_gradient(dynamics), stepsize_controller=controller, max_steps=100_000, event=event, throw=False,
+    )
+    ok = located.result == diffrax.RESULTS.event_occurred
+    time = jax.lax.stop_gradient(located.ts[-1])
+    solution = diffrax.diffeqsolve(
+        term, diffrax.Dopri8(), t0=0.0, t1=time, dt0=None, y0=y0, args=dynamics,
+        stepsize_controller=controller, max_steps=100_000, adjoint=diffrax.ForwardMode(), throw=False,
+    )
+    y = solution.ys[-1]
+    field = lambda z: dynamics.vector_field(time, z, zero_input)
+    rate, curvature = jax.jvp(field, (y,), (field(y),))
+
+    def later(shift):  # y(T + shift) to second order in the shift
+        return y + rate * shift + curvature * shift**2 / 2
+
+    def newton(shift):
+        z = later(shift)
+        gap, gap_rate = jax.jvp(dynamics.front_gap, (z,), (rate + curvature * shift,))
+        return shift - gap / gap_rate
+
+    # Two Newton steps: the first gives the time's first derivatives exactly, the second
+    # its second derivatives (what `gait_sensitivity` reads through the Jacobian).
+    shift = newton(newton(jnp.zeros_like(time)))
+    ok = ok & (solution.result == diffrax.RESULTS.successful)
+    return Step(dynamics.heel_strike(later(shift)), time + shift, ok)
+
+
+step_to_step_jit = eqx.filter_jit(step_to_step)
+
+
+def _map(dynamics, y):
+    return step_to_step(dynamics, y).state
+
+
+@eqx.filter_jit
+def _map_and_jacobian(dynamics, y):
+    step = step_to_step(dynamics, y)
+    return step, jax.jacfwd(lambda z: _map(dynamics, z))(y)
+
+
+def find_gait(dynamics: AbstractDynamics, guess: State, *, tolerance: float = 1e-12, max_iterations: int = 30) -> Gait:
+    """The period-one gait nearest `guess` by Newton's method on `P(y) - y`, the Jacobian by `jax.jacfwd`.
+
+    Converged when the residual `P(y) - y` is below `tolerance`, or the Newton update is
+    and the residual below ten times it (max norms): `P` itself is accurate to about 1e-13 over a step (`step_to_step`'s
+    tolerances), which an unstable gait's Newton step amplifies by `(I - DP)^-1`.
+    """
+    y = jnp.asarray(guess, dtype=jnp.result_type(float))
+    converged = False
+    for _ in range(max_iterations):
+        step, jacobian = _map_and_jacobian(dynamics, y)
+        if not bool(step.ok):
+            break
+        residual = step.state - y
+        if float(jnp.max(jnp.abs(residual))) < tolerance:
+            converged = True
+            break
+        update = jnp.linalg.solve(jacobian - jnp.eye(y.shape[0], dtype=y.dtype), -residual)
+        y = y + update
+        if float(jnp.max(jnp.abs(update))) < tolerance and float(jnp.max(jnp.abs(residual))) < 10 * tolerance:
+            converged = True
+            break
+    step, jacobian = _map_and_jacobian(dynamics, y)
+    jacobian = np.asarray(jacobian)
+    eigenvalues = np.linalg.eigvals(jacobian)
+    eigenvalues = eigenvalues[np.argsort(-np.abs(eigenvalues), kind="stable")]
+    residual = float(jnp.max(jnp.abs(step.state - y)))
+    return Gait(np.asarray(y), float(step.period), jacobian, eigenvalues, residual, converged and bool(step.ok))
+
+
+def parameter_names(dynamics: AbstractDynamics) -> list[str]:
+    """The dynamics' physical parameters: its floating-point scalar fields."""
+    names = []
+    for field in dataclasses.fields(dynamics):
+        value = getattr(dynamics, field.name)
+        if eqx.is_inexact_array(value) and value.shape == ():
+            names.append(field.name)
+    return names
+
+
+def _with(dynamics, name, value):
+    return eqx.tree_at(lambda d: getattr(d, name), dynamics, value)
+
+
+@eqx.filter_jit
+def _parameter_derivative(dynamics, y, name_value, name: str):
+    """`dP/dp` at `(y, p)` for the one parameter `name`, by `jax.jvp` (forward mode)."""
+    return jax.jvp(lambda p: _map(_with(dynamics, name, p), y), (name_value,), (jnp.ones_like(name_value),))[1]
+
+
+def _jacobian_of(dynamics, y):
+    return jax.jacfwd(lambda z: _map(dynamics, z))(y)
+
+
+def _jacobian_derivative(dynamics, y, name, value, dy):
+    """The total derivative of `DP(y*(p), p)` along `p`: `D2P dy + dDP/dp`, by one `jax.jvp`."""
+    return jax.jvp(lambda z, p: _jacobian_of(_with(dynamics, name, p), z), (y, value), (dy, jnp.ones_like(value)))[1]
+
+
+_jacobian_derivative_jit = eqx.filter_jit(_jacobian_derivative)
+
+
+def gait_sensitivity(dynamics: AbstractDynamics, gait: Gait, names: list[str] | None = None) -> Sensitivity:
+    """Derivatives of `gait`'s fixed point and of its largest eigenvalue's modulus w.r.t. each parameter in `names`.
+
+    By the implicit function theorem (module docstring); `names` defaults to every
+    physical parameter of `dynamics` (`parameter_names`).
+    """
+    names = parameter_names(dynamics) if names is None else names
+    y = jnp.asarray(gait.fixed_point)
+    jacobian = gait.jacobian
+    n = jacobian.shape[0]
+    values, right = np.linalg.eig(jacobian)
+    index = int(np.argmax(np.abs(values)))
+    lam, v = values[index], right[:, index]
+    left_values, left = np.linalg.eig(jacobian.T)
+    w = left[:, int(np.argmin(np.abs(left_values - lam)))]  # w^T J = lam w^T
+    fixed, radius = {}, {}
+    for name in names:
+        value = getattr(dynamics, name)
+        partial = np.asarray(_parameter_derivative(dynamics, y, value, name))
+        dy = np.linalg.solve(np.eye(n) - jacobian, partial)
+        fixed[name] = dy
+        d_jacobian = np.asarray(_jacobian_derivative_jit(dynamics, y, name, value, jnp.asarray(dy)))
+        d_lam = (w @ d_jacobian @ v) / (w @ v)
+        radius[name] = float(np.real(np.conj(lam) * d_lam) / np.abs(lam))
+    return Sensitivity(fixed, radius)
+
+
+def walker_scenes() -> list[str]:
+    """The registered scenes whose dynamics are walkers (what `lerax-like gait` takes)."""
+    from ..physics.walker import AbstractWalkerDynamics
+    from .scenes import SCENES
+
+    def is_walker(scene) -> bool:
+        dynamics = scene.__annotations__.get("dynamics")
+        return isinstance(dynamics, type) and issubclass(dynamics, AbstractWalkerDynamics)
+
+    return sorted(name for name, scene in SCENES.items() if is_walker(scene))
+
+
+def scene_gait(name: str, keywords: dict[str, float] | None = None, *, sensitivity: bool = True) -> str:
+    """The period-one gait of the walker scene `name` (built with `keywords`), as text.
+
+    Newton starts at the middle of the scene's starting box (each walker's is about its
+    passive gait). With `sensitivity`, also the derivatives of the fixed point and of the
+    largest eigenvalue's modulus w.r.t. every physical parameter.
+    """
+    from .scenes import make_scene
+
+    jax.config.update("jax_enable_x64", True)  # a gait's digits need float64
+    scene = make_scene(name, **(keywords or {}))
+    low, high = scene.initial_bounds
+    dynamics = jax.tree.map(lambda leaf: jnp.asarray(leaf, jnp.float64) if eqx.is_inexact_array(leaf) else leaf, scene.dynamics)
+    gait = find_gait(dynamics, (jnp.asarray(low, jnp.float64) + jnp.asarray(high, jnp.float64)) / 2)
+    with np.printoptions(precision=12, suppress=False, linewidth=120):
+        lines = [
+            f"{name}: period-one gait ({'converged' if gait.converged else 'NOT converged'}, residual {gait.residual:.1e})",
+            f"  fixed point (just after heel strike): {gait.fixed_point}",
+            f"  step period: {gait.period:.12g}",
+            f"  eigenvalues of the return map's Jacobian: {gait.eigenvalues}",
+            f"  {'stable' if gait.stable else 'unstable'}: largest modulus {np.max(np.abs(gait.eigenvalues)):.12g}",
+        ]
+        if sensitivity and gait.converged:
+            derivatives = gait_sensitivity(dynamics, gait)
+            lines.append("  derivatives (implicit function theorem):")
+            for parameter, value in derivatives.fixed_point.items():
+                lines.append(f"    d fixed point / d {parameter}: {value}")
+                lines.append(f"    d |largest eigenvalue| / d {parameter}: {derivatives.spectral_radius[parameter]:.10g}")
+    return "\n".join(lines)
+
+
+__all__ = ["Gait", "Sensitivity", "Step", "find_gait", "gait_sensitivity", "parameter_names", "scene_gait", "step_to_step", "step_to_step_jit", "walker_scenes"]
