@@ -51,6 +51,8 @@ from .physics import (
     PlanarQuadrotorDynamics as PlanarQuadrotorDynamics,
     RimlessWheelDynamics as RimlessWheelDynamics,
     VanDerPolDynamics as VanDerPolDynamics,
+    SimplestWalkerDynamics as SimplestWalkerDynamics,
+    CompassGaitDynamics as CompassGaitDynamics,
 )
 from .scenes import (
     SCENES as SCENES,
@@ -68,7 +70,9 @@ from .scenes import (
     Pendulum as Pendulum,
     PlanarQuadrotor as PlanarQuadrotor,
     RimlessWheel as RimlessWheel,
+    SimplestWalker as SimplestWalker,
     VanDerPol as VanDerPol,
+    CompassGait as CompassGait,
 )
 from .spaces import Box as Box, Discrete as Discrete
 
@@ -145,6 +149,10 @@ __all__ = [
     "register_scene",
     "register_solver",
     "RimlessWheel",
+    "SimplestWalker",
+    "SimplestWalkerDynamics",
+    "CompassGait",
+    "CompassGaitDynamics",
     "RimlessWheelDynamics",
     "RK4",
     "rollout",

@@ -1,6 +1,6 @@
 """The compass-gait biped (Goswami, Thuilot and Espiau, 1996)."""
 
-from typing import ClassVar, final
+from typing import TYPE_CHECKING, ClassVar, final
 
 import jax
 import jax.numpy as jnp
@@ -38,6 +38,20 @@ class CompassGaitDynamics(AbstractWalkerDynamics):
     map (`heel_strike`) exchanges the legs and conserves the angular momentum of the
     whole walker about the new stance foot and of the new swing leg about the hip.
     """
+
+    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+
+        def __init__(
+            self,
+            *,
+            lower_length: ScalarLike = 0.5,
+            upper_length: ScalarLike = 0.5,
+            leg_mass: ScalarLike = 5.0,
+            hip_mass: ScalarLike = 10.0,
+            slope: ScalarLike = 0.05235987755982988,
+            gravity: ScalarLike = 9.81,
+        ) -> None: ...
+    # (end of the constructor written by python -m lerax_like._constructor_source)
 
     velocity_indices: ClassVar[tuple[int, ...]] = (2, 3)
 

@@ -1,6 +1,6 @@
 """The simplest walking model (Garcia, Chatterjee, Ruina and Coleman, 1998)."""
 
-from typing import ClassVar, final
+from typing import TYPE_CHECKING, ClassVar, final
 
 import jax.numpy as jnp
 import numpy as np
@@ -40,6 +40,15 @@ class SimplestWalkerDynamics(AbstractWalkerDynamics):
     (eq. 4): `theta+ = -theta-`, `phi+ = -phi-`, `theta_dot+ = cos(2 theta) theta_dot-`,
     `phi_dot+ = cos(2 theta) (1 - cos(2 theta)) theta_dot-`.
     """
+
+    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+
+        def __init__(
+            self,
+            *,
+            slope: ScalarLike = 0.009,
+        ) -> None: ...
+    # (end of the constructor written by python -m lerax_like._constructor_source)
 
     velocity_indices: ClassVar[tuple[int, ...]] = (2, 3)
 

@@ -110,6 +110,8 @@ from .n_link_pendulum import NLinkPendulum as NLinkPendulum  # noqa: E402
 from .pendulum import Pendulum as Pendulum  # noqa: E402
 from .planar_quadrotor import PlanarQuadrotor as PlanarQuadrotor  # noqa: E402
 from .rimless_wheel import RimlessWheel as RimlessWheel  # noqa: E402
+from .compass_gait import CompassGait as CompassGait  # noqa: E402
+from .simplest_walker import SimplestWalker as SimplestWalker  # noqa: E402
 from .van_der_pol import VanDerPol as VanDerPol  # noqa: E402
 
 __all__ = [
@@ -121,6 +123,7 @@ __all__ = [
     "BouncingBall",
     "CartPole",
     "CartPoleContinuous",
+    "CompassGait",
     "DoubleCartPole",
     "MountainCar",
     "MountainCarContinuous",
@@ -128,6 +131,7 @@ __all__ = [
     "Pendulum",
     "PlanarQuadrotor",
     "RimlessWheel",
+    "SimplestWalker",
     "VanDerPol",
     "is_abstract_scene",
     "register_scene",

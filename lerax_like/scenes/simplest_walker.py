@@ -1,4 +1,4 @@
-from typing import ClassVar, final
+from typing import TYPE_CHECKING, ClassVar, final
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -58,6 +58,33 @@ class SimplestWalker(AbstractWalkerEnv):
     `integrator` or `solver` (default `"tsit5"`) with `stepsize_controller`,
     `max_episode_steps`.
     """
+
+    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+        import diffrax
+        from lerax_like._types import ScalarLike
+
+        def __init__(
+            self,
+            *,
+            dynamics: SimplestWalkerDynamics = ...,
+            integrator: Integrator = ...,
+            contacts: tuple = ...,
+            max_torque: ScalarLike = 0.01,
+            target_speed: ScalarLike = 0.2,
+            max_cost: ScalarLike = 1.0,
+            action_cost: ScalarLike = 0.01,
+            fall_angle: ScalarLike = 1.5707963267948966,
+            dt: ScalarLike = 0.1,
+            max_episode_steps: int | None = 1000,
+            slope: ScalarLike = 0.009,
+            solver: str | diffrax.AbstractSolver | Integrator = 'tsit5',
+            stepsize_controller: diffrax.AbstractStepSizeController | None = None,
+            max_steps: int | None = None,
+            adjoint: diffrax.AbstractAdjoint | None = None,
+            substeps: int = 1,
+            max_events: int | None = None,
+        ) -> None: ...
+    # (end of the constructor written by python -m lerax_like._constructor_source)
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
     action_size: ClassVar[int] = 1
