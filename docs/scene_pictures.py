@@ -52,6 +52,8 @@ RUNS = {
     "PlanarQuadrotor": ({}, lambda s, k: quadrotor_home(s), 150, 1),
     "BouncingBall": ({}, lambda s, k: np.array([0.6, 0.0]) if k < 30 else np.zeros(2), 150, 1),
     "RimlessWheel": ({}, lambda s, k: np.array([0.0]), 120, 2),
+    "SimplestWalker": ({}, lambda s, k: np.array([0.0]), 120, 1),
+    "CompassGait": ({}, lambda s, k: np.array([0.0]), 150, 2),
 }
 
 

@@ -260,7 +260,52 @@ def van_der_pol(scene: AbstractEnv, state: np.ndarray, action) -> np.ndarray:
     return canvas.image()
 
 
+def _walker(canvas: Canvas, slope: float, hip, swing_foot, length: float) -> None:
+    """Two legs from the hip, the stance foot at the origin, on a slope downhill to the right."""
+    downhill = np.array([math.cos(slope), -math.sin(slope)])
+    far = 10 * length
+    canvas.below((0.0, 0.0), tuple(downhill), FAINT)
+    canvas.segment(tuple(-far * downhill), tuple(far * downhill), 2.0, GROUND)
+    canvas.segment(tuple(hip), tuple(swing_foot), ROD_WIDTH, ROD)
+    canvas.segment((0.0, 0.0), tuple(hip), ROD_WIDTH + 2, BODY)
+    canvas.disc(tuple(hip), 2 * JOINT_RADIUS, JOINT)
+
+
+def simplest_walker(scene: AbstractEnv, state: np.ndarray, action) -> np.ndarray:
+    """`SimplestWalkerDynamics` (legs of unit length), seen from its stance foot: `theta` the
+    stance leg's angle from the slope's normal (positive with the hip uphill of the foot),
+    `phi` the angle from the stance leg to the swing leg; the stance leg darker."""
+    del action
+    slope = value(scene.dynamics.slope)
+    theta, phi = state[0], state[1]
+    # In the slope's frame (x downhill along it, y along its normal), then turned by the slope.
+    turn = np.array([[math.cos(slope), math.sin(slope)], [-math.sin(slope), math.cos(slope)]])
+    hip = turn @ np.array([-math.sin(theta), math.cos(theta)])
+    swing_foot = hip - turn @ np.array([-math.sin(theta - phi), math.cos(theta - phi)])
+    canvas = Canvas((-1.8, 1.8), (-1.0, 1.4))
+    _walker(canvas, slope, hip, swing_foot, 1.0)
+    return canvas.image()
+
+
+def compass_gait(scene: AbstractEnv, state: np.ndarray, action) -> np.ndarray:
+    """`CompassGaitDynamics`, seen from its stance foot: each leg at its angle from the
+    vertical (positive downhill, foot to hip), the stance leg darker, the leg masses as discs."""
+    del action
+    dynamics = scene.dynamics
+    a, b = value(dynamics.lower_length), value(dynamics.upper_length)
+    length, slope = a + b, value(dynamics.slope)
+    theta_s, theta_w = state[0], state[1]
+    stance = np.array([math.sin(theta_s), math.cos(theta_s)])
+    swing = np.array([math.sin(theta_w), math.cos(theta_w)])
+    hip = length * stance
+    canvas = Canvas((-1.8 * length, 1.8 * length), (-1.0 * length, 1.4 * length))
+    _walker(canvas, slope, hip, hip - length * swing, length)
+    for mass in (a * stance, hip - b * swing):
+        canvas.disc(tuple(mass), JOINT_RADIUS + 2, JOINT)
+    return canvas.image()
+
+
 __all__ = [
-    "Canvas", "acrobot", "arrow", "bouncing_ball", "cart_chain", "cart_pole", "chain", "mountain_car",
-    "n_link_pendulum", "pendulum", "planar_quadrotor", "rimless_wheel", "value", "values", "van_der_pol",
+    "Canvas", "acrobot", "arrow", "bouncing_ball", "cart_chain", "cart_pole", "chain", "compass_gait", "mountain_car",
+    "n_link_pendulum", "pendulum", "planar_quadrotor", "rimless_wheel", "simplest_walker", "value", "values", "van_der_pol",
 ]

@@ -29,7 +29,9 @@ from ..physics import (
     PlanarQuadrotorDynamics,
     VanDerPolDynamics,
 )
+from ..physics.compass_gait import CompassGaitDynamics
 from ..physics.rimless_wheel import RimlessWheelDynamics
+from ..physics.simplest_walker import SimplestWalkerDynamics
 from ..scenes import SCENES
 from . import _pictures as pictures
 from ._compiled import float64
@@ -46,6 +48,8 @@ _RENDERERS: dict[type, Renderer] = {
     NLinkPendulumDynamics: pictures.n_link_pendulum,
     PlanarQuadrotorDynamics: pictures.planar_quadrotor,
     RimlessWheelDynamics: pictures.rimless_wheel,
+    SimplestWalkerDynamics: pictures.simplest_walker,
+    CompassGaitDynamics: pictures.compass_gait,
     VanDerPolDynamics: pictures.van_der_pol,
     SCENES["BouncingBall"]: pictures.bouncing_ball,
 }
