@@ -54,6 +54,21 @@ def time_step(default: float):
 
 
 
+def _check_friction(env) -> None:
+    """Refuse, by name, friction the step cannot integrate: on dynamics it cannot act on, more
+    than one friction add-on, or friction beside located contacts."""
+    friction = getattr(env, "friction", ())
+    for addon in friction:
+        addon.check(env.dynamics)
+    if len(friction) > 1:
+        raise ValueError(f"{type(env).__name__} takes at most one friction add-on, got {len(friction)}")
+    if friction and getattr(env, "contacts", ()):
+        raise ValueError(
+            f"{type(env).__name__}: Coulomb friction and located contacts (restitution, walls) cannot be "
+            "combined yet; give either the friction keywords or the contact ones"
+        )
+
+
 class EnvState(eqx.Module):
     """The state of an env: the continuous state `y` and the env steps taken in this episode.
 
@@ -155,6 +170,7 @@ class AbstractEnv(eqx.Module):
         assign_fields(self, keywords)
         for contact in getattr(self, "contacts", ()):
             contact.check(self.dynamics)
+        _check_friction(self)
 
     def __init_subclass__(cls, **keywords):
         super().__init_subclass__(**keywords)
@@ -257,7 +273,10 @@ class AbstractEnv(eqx.Module):
 
         A scene with contacts (a field `contacts` of `lerax_like.physics.contact` add-ons)
         is integrated segment by segment with its impacts located as events
-        (`lerax_like.hybrid`); its info also holds `impacts` and `first_impact_time`.
+        (`lerax_like.hybrid`); its info also holds `impacts` and `first_impact_time`. A
+        scene with Coulomb friction (a field `friction`, `lerax_like.physics.friction`) is
+        integrated mode by mode, stick and slip, its switches located (`lerax_like.stick_slip`);
+        its info also holds `switches`, `first_switch_time` and `friction_consistent`.
 
         The info holds `solver_ok`, `solver_steps` and `solver_rejected_steps`. A failed
         solve (non-finite state, exhausted step budget) keeps the pre-step state, so that
@@ -266,6 +285,16 @@ class AbstractEnv(eqx.Module):
         """
         physics = self.physics
         contacts = getattr(self, "contacts", ())
+        friction = getattr(self, "friction", ())
+        if friction:
+            from .stick_slip import integrate_with_friction
+
+            y, info = integrate_with_friction(
+                self.integrator, physics, self.dynamics, friction[0], state.y, u, self.dt,
+                projection=self.project if self.projects_state() else None,
+            )
+            y = jnp.where(info["solver_ok"], y, state.y)
+            return EnvState(y=y, steps=state.steps + 1), info
         if contacts:
             from .hybrid import integrate_with_contacts
 

@@ -27,6 +27,7 @@ _REGISTERED = (
     "planar_quadrotor:PlanarQuadrotor",
     "bouncing_ball:BouncingBall",
     "rimless_wheel:RimlessWheel",
+    "sliding_block:SlidingBlock",
 )
 
 

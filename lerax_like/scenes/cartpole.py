@@ -10,6 +10,7 @@ from ..integrate import Integrator
 from ..physics import CartPoleDynamics
 from ..physics.contact import Walls
 from ..physics.forces import EndStops, JointDamping
+from ..physics.friction import CartFriction
 from ..spaces import Box, Discrete
 from ._unit_action import AbstractUnitActionEnv
 
@@ -25,12 +26,13 @@ class AbstractCartPole(AbstractEnv):
     """
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
-    addons: ClassVar[tuple[type, ...]] = (JointDamping, EndStops, Walls)
+    addons: ClassVar[tuple[type, ...]] = (JointDamping, EndStops, Walls, CartFriction)
 
     dynamics: CartPoleDynamics = dynamics(CartPoleDynamics)
     integrator: Integrator = integrator("euler")
     forces: tuple = ()
     contacts: tuple = ()
+    friction: tuple = ()
     force_mag: Scalar = parameter(10.0, POSITIVE)
     theta_threshold_radians: Scalar = parameter(_TWELVE_DEGREES, POSITIVE_OR_INF)
     x_threshold: Scalar = parameter(2.4, POSITIVE_OR_INF)

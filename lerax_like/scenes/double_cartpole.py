@@ -10,6 +10,7 @@ from ..integrate import Integrator
 from ..physics.chain import CartChainDynamics
 from ..physics.contact import Walls
 from ..physics.forces import EndStops, JointDamping
+from ..physics.friction import CartFriction
 from ._unit_action import AbstractUnitActionEnv
 
 
@@ -69,7 +70,7 @@ class DoubleCartPole(AbstractUnitActionEnv):
     """
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
-    addons: ClassVar[tuple[type, ...]] = (JointDamping, EndStops, Walls)
+    addons: ClassVar[tuple[type, ...]] = (JointDamping, EndStops, Walls, CartFriction)
     action_size: ClassVar[int] = 1
     action_scale: ClassVar[str] = "force_mag"
 
@@ -78,6 +79,7 @@ class DoubleCartPole(AbstractUnitActionEnv):
     integrator: Integrator = integrator("rk4")
     forces: tuple = ()
     contacts: tuple = ()
+    friction: tuple = ()
     force_mag: Scalar = parameter(20.0, POSITIVE)
     theta_threshold_radians: Scalar = parameter(12 * 2 * math.pi / 360, POSITIVE_OR_INF)
     x_threshold: Scalar = parameter(check=POSITIVE_OR_INF, default_from=_track_default)
