@@ -49,6 +49,21 @@ from .physics.contact import with_coordinates
 from .physics.friction import AbstractCoulombFriction
 
 
+@final
+class _TimeBisection(optimistix.Bisection):
+    """Bisection that stops when the bracket in time is within tolerance, whatever the condition's value.
+
+    `optimistix.Bisection` also asks `|condition| < atol`: a normal force of 10 N is
+    computed to about 1e-15 N, never below `atol` = 4 machine epsilons, and the root find
+    ran out of steps. The time bracket is what locates the switch.
+    """
+
+    def terminate(self, fn, y, args, options, state, tags):
+        del fn, args, options, tags
+        scale = self.atol + self.rtol * jnp.abs(y)
+        return jnp.abs(state.lower - state.upper) < scale, optimistix.RESULTS.successful
+
+
 # Which condition ended a segment (its index in `_Modes.conditions`).
 SLIP_ENDS, NORMAL_FLIPS, RELEASE, INCONSISTENT = range(4)
 
@@ -201,7 +216,7 @@ def integrate_with_friction(
     tolerance = 4 * float(jnp.finfo(dtype).eps)
     event = diffrax.Event(
         modes.condition,
-        root_finder=optimistix.Bisection(rtol=tolerance, atol=tolerance, flip=True),
+        root_finder=_TimeBisection(rtol=tolerance, atol=tolerance, flip=True),
         direction=False,
     )
 
