@@ -41,6 +41,7 @@ def _stop(env, v0):
     return time, ys[-1, 0], ys[-1, 1], jnp.sum(info["switches"]), jnp.all(info["solver_ok"])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("solver", ["tsit5", "rk4"])
 def test_launched_block_stops_at_the_closed_form_time_and_distance(solver):
     env = _block(solver=solver)
@@ -52,6 +53,7 @@ def test_launched_block_stops_at_the_closed_form_time_and_distance(solver):
     assert np.all(np.asarray(speeds) == 0.0)  # at rest exactly, not to round-off
 
 
+@pytest.mark.slow
 def test_stopping_distance_gradient_in_kinetic_friction_matches_the_closed_form():
     # d/dmu_k of v0^2 / (2 mu_k g), by reverse mode and by forward mode, single and vmapped
     # over launch speeds (distinct starts).
@@ -85,6 +87,7 @@ def test_block_under_a_sub_threshold_load_stays_exactly_at_rest_for_ten_thousand
     assert int(jnp.sum(info["switches"])) == 0
 
 
+@pytest.mark.slow
 def test_block_on_an_incline_holds_iff_tan_alpha_is_at_most_mu_s():
     threshold = math.atan(MU_S)
     inclines = jnp.array([0.0, 0.2, threshold - 1e-6, threshold + 1e-6, 0.6])
