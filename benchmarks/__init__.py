@@ -100,6 +100,7 @@ BENCHMARKS = {
         Benchmark("jax_rl", "rejax's PPO on gymnax's CartPole and on lerax_like.gymnax's (euler, rk4, tsit5): time and return", (_GYMNAX, _REJAX)),
         Benchmark("sb3_vector", "PPO on lerax_like.sb3.make_vec_env against SB3's make_vec_env; the VecEnvs' speed", (_SB3,)),
         Benchmark("contact", "located walls against penalty end stops: throughput and accuracy against SciPy", (_STUDY, _PLOTS)),
+        Benchmark("friction", "located stick-slip against tanh-regularised friction at matched stop distance: forward and gradient cost"),
         Benchmark(
             "contact_gradient_variance", "first-order gradient bias and variance through located walls and penalty end stops",
             (_STUDY, _PLOTS),

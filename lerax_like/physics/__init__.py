@@ -27,3 +27,9 @@ from .contact import (
     Walls as Walls,
 )
 from .ball import BallDynamics as BallDynamics, FloorAndWall as FloorAndWall
+from .friction import (
+    AbstractCoulombFriction as AbstractCoulombFriction,
+    CartFriction as CartFriction,
+    PlaneFriction as PlaneFriction,
+)
+from .sliding_block import SlidingBlockDynamics as SlidingBlockDynamics
