@@ -12,9 +12,10 @@ at the preset's default tolerances (rtol 1e-6, atol 1e-9) in both models:
   (relative) of the closed form `v0^2 / (2 mu_k g)`, which the located model meets to 1e-10.
 
 Throughput is env steps per second (N T over the median of `--repeats` runs after
-compiling) of the rollout, and of the value and gradient of the summed stop distance with
-respect to mu_k (reverse mode). Also recorded: each model's largest relative error of the
-distance and of its derivative `-v0^2 / (2 mu_k^2 g)` against the closed forms.
+compiling, the four programs interleaved in each repeat) of the rollout, and of the value
+and gradient of the summed stop distance with respect to mu_k (reverse mode). Also
+recorded: each model's largest relative error of the distance and of its derivative
+`-v0^2 / (2 mu_k^2 g)` against the closed forms.
 
     python -m benchmarks friction            # N = 1024, T = 16
     python -m benchmarks friction --quick    # N = 64, into results/quick/
@@ -24,7 +25,6 @@ import argparse
 import csv
 import json
 import pathlib
-import time
 
 import equinox as eqx
 import jax
@@ -35,6 +35,7 @@ jax.config.update("jax_enable_x64", True)
 
 import lerax_like as ll  # noqa: E402
 from benchmarks import results_dir  # noqa: E402
+from benchmarks._workload import interleaved  # noqa: E402
 
 
 MU_S, MU_K, G = 0.5, 0.3, 9.81
@@ -80,23 +81,13 @@ def tanh_distances(mu_k, speeds, steps, epsilon):
     return jax.vmap(one)(speeds)
 
 
-def _median_time(function, *args, repeats: int) -> float:
-    jax.block_until_ready(function(*args))  # compile
-    times = []
-    for _ in range(repeats):
-        started = time.perf_counter()
-        jax.block_until_ready(function(*args))
-        times.append(time.perf_counter() - started)
-    return float(np.median(times))
-
-
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--out", type=pathlib.Path, default=None)
     parser.add_argument("--envs", type=int, default=None)
     parser.add_argument("--steps", type=int, default=16)
-    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--repeats", type=int, default=5)
     args = parser.parse_args(argv)
     out = args.out or results_dir(args.quick)
     out.mkdir(parents=True, exist_ok=True)
@@ -127,25 +118,28 @@ def main(argv=None):
         "located": lambda m, s: located_distances(m, s, args.steps),
         "tanh": lambda m, s: tanh_distances(m, s, args.steps, epsilon),
     }
-    rows = []
+    programs, rows = {}, []
     for name, distances in models.items():
         forward = jax.jit(distances)
-        positions, ok = forward(mu, speeds)
-        forward_time = _median_time(forward, mu, speeds, repeats=args.repeats)
         gradient = jax.jit(jax.value_and_grad(lambda m, s, distances=distances: jnp.sum(distances(m, s)[0])))
-        gradient_time = _median_time(gradient, mu, speeds, repeats=args.repeats)
-        # Each env's derivative (the gradient of the sum is their sum): the vmapped Jacobian.
+        positions, ok = jax.block_until_ready(forward(mu, speeds))  # compiles
+        jax.block_until_ready(gradient(mu, speeds))
+        # Each env's derivative (the gradient of the sum is their sum): the Jacobian.
         per_env = jax.jit(jax.jacrev(lambda m, s, distances=distances: distances(m, s)[0]))(mu, speeds)
-        row = {
+        programs[f"{name} forward"] = lambda forward=forward: jax.block_until_ready(forward(mu, speeds))
+        programs[f"{name} gradient"] = lambda gradient=gradient: jax.block_until_ready(gradient(mu, speeds))
+        rows.append({
             "model": name, "epsilon": epsilon if name == "tanh" else 0.0, "envs": envs, "steps": args.steps,
-            "forward_steps_per_s": envs * args.steps / forward_time,
-            "value_and_grad_steps_per_s": envs * args.steps / gradient_time,
             "distance_relative_error": float(np.max(np.abs(np.asarray(positions) - distance) / distance)),
             "derivative_relative_error": float(np.max(np.abs(np.asarray(per_env) - derivative) / np.abs(derivative))),
             "solver_ok_fraction": float(jnp.mean(ok)),
-        }
+        })
+    # Interleaved, so that the load of the shared machine falls on both models alike.
+    seconds = interleaved(programs, args.repeats)
+    for row in rows:
+        row["forward_steps_per_s"] = envs * args.steps / float(np.median(seconds[f"{row['model']} forward"]))
+        row["value_and_grad_steps_per_s"] = envs * args.steps / float(np.median(seconds[f"{row['model']} gradient"]))
         print(json.dumps(row), flush=True)
-        rows.append(row)
     with open(out / "friction.csv", "w", newline="") as file:
         writer = csv.DictWriter(file, fieldnames=list(rows[0]))
         writer.writeheader()

@@ -64,7 +64,7 @@ class _TimeBisection(optimistix.Bisection):
         return jnp.abs(state.lower - state.upper) < scale, optimistix.RESULTS.successful
 
 
-# Which condition ended a segment (its index in `_Modes.conditions`).
+# Which condition ended a segment (its index in `FrictionModes.conditions`).
 SLIP_ENDS, NORMAL_FLIPS, RELEASE, INCONSISTENT = range(4)
 
 
@@ -82,7 +82,7 @@ class _Forces(NamedTuple):
 
 
 @final
-class _Modes(eqx.Module):
+class FrictionModes(eqx.Module):
     """The friction's modes seen from the step: forces, vector field, conditions, switches.
 
     A mode is `(s, sigma)`, floats: `s` in {-1, 0, 1} (0: stick), `sigma` in {-1, 1}.
@@ -203,7 +203,7 @@ def integrate_with_friction(
             "adjoint BacksolveAdjoint cannot differentiate through located events (diffrax refuses "
             "events with it): use with_adjoint(env, 'checkpoint') (reverse mode) or 'forward' (jacfwd)"
         )
-    modes = _Modes(physics=physics, dynamics=dynamics, friction=friction)
+    modes = FrictionModes(physics=physics, dynamics=dynamics, friction=friction)
     dtype = y0.dtype
     dt = jnp.asarray(dt, dtype=dtype)
     solver = integrator.solver
@@ -281,4 +281,4 @@ def integrate_with_friction(
     return y, info
 
 
-__all__ = ["integrate_with_friction"]
+__all__ = ["FrictionModes", "integrate_with_friction"]
