@@ -39,7 +39,11 @@ def gather_addons(cls, keywords) -> None:
                 )
     for addon in selected:
         given = {name: keywords[name] for name in names[addon] if name in keywords}
-        addons[_field_of(addon)].append(addon(**given))
+        built = addon(**given)
+        # An add-on that acts as if absent (friction coefficients given as zero) is not built
+        # in, so that the scene computes none of it (CartPole stays Gymnasium's bit for bit).
+        if not getattr(built, "absent", False):
+            addons[_field_of(addon)].append(built)
     for addon in selected:
         for name in names[addon]:
             keywords.pop(name, None)

@@ -202,3 +202,15 @@ def test_an_inconsistent_slip_is_reported_not_integrated():
     bad = int(np.argmin(consistent))
     assert np.array_equal(np.asarray(after.y[bad]), np.asarray(states.y[bad]))
     assert np.all(np.isfinite(np.asarray(after.y)))
+
+
+def test_zero_friction_builds_no_add_on_and_stays_the_plain_cartpole_bit_for_bit():
+    # Coefficients given as zero build nothing (the scene computes no friction), so the
+    # cart-pole stays the plain one, which tests/test_cartpole_gymnasium.py holds to Gymnasium.
+    plain, zero = ll.CartPole(), ll.CartPole(cart_static_friction=0.0, cart_kinetic_friction=0.0)
+    assert zero.friction == () and plain.friction == ()
+    assert ll.CartPole(cart_kinetic_friction=0.0).friction != ()  # static friction left at Barto's
+    state = ll.EnvState(y=jnp.array([0.01, -0.02, 0.03, 0.04]), steps=jnp.zeros((), dtype=int))
+    actions = jnp.array([0, 1, 1, 0, 1, 0, 0, 1] * 4)
+    run = jax.jit(ll.rollout)
+    assert np.array_equal(np.asarray(run(zero, state, actions)[0]), np.asarray(run(plain, state, actions)[0]))

@@ -52,6 +52,12 @@ class AbstractCoulombFriction(AbstractParametrised):
         """The normal force `N` in the state `y` when the coordinates accelerate by `acceleration`."""
         raise NotImplementedError
 
+    @property
+    def absent(self) -> bool:
+        """Whether both coefficients are zero (concretely): a scene given its keywords so builds no friction."""
+        static, kinetic = concrete(self.static_friction), concrete(self.kinetic_friction)
+        return static is not None and kinetic is not None and not np.any(static) and not np.any(kinetic)
+
     def check(self, dynamics: AbstractDynamics) -> None:
         """Refuse, naming both, dynamics this friction cannot act on."""
         missing = [name for name in ("coordinates", "forced_vector_field") if not hasattr(dynamics, name)]
