@@ -29,9 +29,9 @@ def friction_reference_trajectories(
     import jax.numpy as jnp
 
     from ..stick_slip import FrictionModes
-    from .reference import _solve_ivp
+    from .reference import scipy_solve_ivp
 
-    solve_ivp = _solve_ivp()
+    solve_ivp = scipy_solve_ivp()
     y0s = np.asarray(y0s, dtype=np.float64)
     inputs = np.asarray(inputs, dtype=np.float64)
     fractions = np.asarray(fractions, dtype=np.float64)
