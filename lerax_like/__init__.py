@@ -41,6 +41,7 @@ from .physics import (
     AbstractGeneralisedForce as AbstractGeneralisedForce,
     AcrobotDynamics as AcrobotDynamics,
     CartChainDynamics as CartChainDynamics,
+    CartFriction as CartFriction,
     CartPoleDynamics as CartPoleDynamics,
     EndStops as EndStops,
     ForcedDynamics as ForcedDynamics,
@@ -48,7 +49,9 @@ from .physics import (
     MountainCarDynamics as MountainCarDynamics,
     NLinkPendulumDynamics as NLinkPendulumDynamics,
     PendulumDynamics as PendulumDynamics,
+    PlaneFriction as PlaneFriction,
     PlanarQuadrotorDynamics as PlanarQuadrotorDynamics,
+    SlidingBlockDynamics as SlidingBlockDynamics,
     VanDerPolDynamics as VanDerPolDynamics,
 )
 from .scenes import SCENES as SCENES, AbstractUnitActionEnv as AbstractUnitActionEnv, register_scene as register_scene
