@@ -107,6 +107,12 @@ class CartPole(AbstractCartPole):
       `EndStops`, one-sided spring-dampers: a soft contact that penetrates, whose
       stiffness forces many small steps (use `"tsit5"` or `"kvaerno5"`) and whose
       gradients are biased after an impact.
+    Coulomb friction of the cart on its rail (`CartFriction`, `lerax_like.physics.friction`):
+    `cart_static_friction` and `cart_kinetic_friction` (Barto et al.'s 0.0005 for one not
+    given; both zero build none), with `max_events`; stick and slip are modes of the step and
+    each switch is located (`lerax_like.stick_slip`, the page docs/friction.md), the normal
+    force read off the pole's motion (Florian's correction: it may change sign). Barto's
+    viscous pole friction is `joint_damping`. Not together with `restitution` walls.
     Stiff settings need an adaptive solver (`"tsit5"`) or an implicit one (`"kvaerno5"`).
     """
 

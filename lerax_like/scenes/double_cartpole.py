@@ -67,6 +67,8 @@ class DoubleCartPole(AbstractUnitActionEnv):
     `track_limit`, either as walls located as events (`restitution`, with
     `min_rebound_speed` and `max_events`: an impulse-consistent impact, both poles' rates
     jump) or as penalty end stops (`end_stop_stiffness`, `end_stop_damping`), as `CartPole`.
+    Coulomb friction of the cart on its rail (`cart_static_friction`, `cart_kinetic_friction`),
+    stick and slip located as events, as `CartPole`.
     """
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
