@@ -214,3 +214,23 @@ def test_zero_friction_builds_no_add_on_and_stays_the_plain_cartpole_bit_for_bit
     actions = jnp.array([0, 1, 1, 0, 1, 0, 0, 1] * 4)
     run = jax.jit(ll.rollout)
     assert np.array_equal(np.asarray(run(zero, state, actions)[0]), np.asarray(run(plain, state, actions)[0]))
+
+
+def test_the_double_cart_poles_rail_force_is_the_weight_less_the_links_vertical_accelerations():
+    # N = (m_c + m_1 + m_2) g + m_1 h_1'' + m_2 h_2'', the heights of the uniform poles' centres
+    # written out (h_1 = l_1 cos(t_1) / 2, h_2 = l_1 cos(t_1) + l_2 cos(t_2) / 2), against
+    # CartFriction's normal force, read off the chain's potential energy.
+    env = ll.DoubleCartPole(cart_static_friction=0.3, cart_kinetic_friction=0.2, pole_masses=jnp.array([0.4, 0.3]))
+    chain, friction = env.dynamics, env.friction[0]
+    y = jnp.array([0.1, 0.7, -1.2, 0.3, 2.0, -3.0])  # [x, t1, t2, x', t1', t2']
+    acceleration = jnp.array([0.5, -4.0, 6.0])  # any: N is affine in it
+    (m1, m2), (l1, l2) = chain.pole_masses, chain.pole_lengths
+
+    def heights(q):
+        return jnp.stack([l1 * jnp.cos(q[1]) / 2, l1 * jnp.cos(q[1]) + l2 * jnp.cos(q[2]) / 2])
+
+    q, rates = y[:3], y[3:]
+    _, curvature = jax.jvp(lambda p: jax.jacfwd(heights)(p) @ rates, (q,), (rates,))
+    vertical = jax.jacfwd(heights)(q) @ acceleration + curvature
+    expected = (chain.cart_mass + m1 + m2) * chain.gravity + m1 * vertical[0] + m2 * vertical[1]
+    assert abs(float(friction.normal_force(chain, y, acceleration)) - float(expected)) <= 1e-12 * abs(float(expected))
