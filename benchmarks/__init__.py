@@ -118,6 +118,7 @@ BENCHMARKS = {
             "cleanrl_loop", "a CleanRL-shaped SyncVectorEnv loop: import, compile and step, with JAX's persistent cache",
         ),
         Benchmark("contact", "located walls against penalty end stops: throughput and accuracy against SciPy", (_STUDY, _PLOTS)),
+        Benchmark("friction", "located stick-slip against tanh-regularised friction at matched stop distance: forward and gradient cost"),
         Benchmark(
             "contact_gradient_variance", "first-order gradient bias and variance through located walls and penalty end stops",
             (_STUDY, _PLOTS),

@@ -749,6 +749,32 @@ def contact(folder, link):
     return lines
 
 
+def friction(folder, link):
+    rows = _read_csv(folder, "friction.csv")
+    if rows is None:
+        return []
+    table = [
+        [row["model"], _g(row["epsilon"]) if row["model"] == "tanh" else "located", _mega(row["forward_steps_per_s"]),
+         _mega(row["value_and_grad_steps_per_s"]), _g(row["distance_relative_error"]),
+         _g(row["derivative_relative_error"]), _g(row["solver_ok_fraction"])]
+        for row in rows
+    ]
+    lines = [
+        f"N = {rows[0]['envs']} vmapped SlidingBlocks launched at 0.5 to 2 m/s, {rows[0]['steps']} steps of 0.05 s; "
+        "throughput in env steps per second; errors relative to the closed forms of the stop distance and its "
+        "derivative in mu_k.", "",
+    ]
+    lines += _table(["model", "epsilon", "forward", "value and gradient", "distance error", "d/dmu_k error",
+                     "solver_ok"], table)
+    by_model = {row["model"]: row for row in rows}
+    if {"located", "tanh"} <= set(by_model):
+        located, smooth = by_model["located"], by_model["tanh"]
+        ratio = float(located["forward_steps_per_s"]) / float(smooth["forward_steps_per_s"])
+        gradient_ratio = float(located["value_and_grad_steps_per_s"]) / float(smooth["value_and_grad_steps_per_s"])
+        lines += [f"Located over tanh: {ratio:.3g}x forward, {gradient_ratio:.3g}x value and gradient.", ""]
+    return lines
+
+
 SECTIONS = {
     "work_precision": work_precision,
     "gradient_error": gradient_error,
@@ -775,6 +801,7 @@ SECTIONS = {
     "gym_before_after": gym_before_after,
     "contact": contact,
     "render": render,
+    "friction": friction,
     "sharded_rollout": sharded_rollout,
 }
 assert set(SECTIONS) == set(BENCHMARKS), "every benchmark needs a section"

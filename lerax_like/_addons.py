@@ -3,17 +3,27 @@
 import dataclasses
 
 from .physics.contact import AbstractContact
+from .physics.friction import AbstractCoulombFriction
+
+
+def _field_of(addon: type) -> str:
+    """The scene field that holds an add-on of class `addon`."""
+    if issubclass(addon, AbstractContact):
+        return "contacts"
+    if issubclass(addon, AbstractCoulombFriction):
+        return "friction"
+    return "forces"
 
 
 def gather_addons(cls, keywords) -> None:
-    """Build the add-ons whose parameters are given flat (`joint_damping=0.5`) into `forces` and `contacts`.
+    """Build the add-ons whose parameters are given flat (`joint_damping=0.5`) into `forces`, `contacts`, `friction`.
 
     An add-on is selected by a keyword only it takes (`end_stop_stiffness` selects the penalty
     `EndStops`, `restitution` the located `Walls`); a keyword several take (`track_limit`) goes
     to the selected one, or to the first that takes it when none is selected. Two selected
     add-ons that share a keyword are two models of one thing, and are refused.
     """
-    addons = {"forces": list(keywords.pop("forces", ())), "contacts": list(keywords.pop("contacts", ()))}
+    addons = {field: list(keywords.pop(field, ())) for field in ("forces", "contacts", "friction")}
     names = {addon: {f.name for f in dataclasses.fields(addon)} for addon in cls.addons}
     shared = {name for addon in cls.addons for name in names[addon] if sum(name in n for n in names.values()) > 1}
     selected = [addon for addon in cls.addons if (names[addon] - shared) & set(keywords)]
@@ -29,7 +39,11 @@ def gather_addons(cls, keywords) -> None:
                 )
     for addon in selected:
         given = {name: keywords[name] for name in names[addon] if name in keywords}
-        addons["contacts" if issubclass(addon, AbstractContact) else "forces"].append(addon(**given))
+        built = addon(**given)
+        # An add-on that acts as if absent (friction coefficients given as zero) is not built
+        # in, so that the scene computes none of it (CartPole stays Gymnasium's bit for bit).
+        if not getattr(built, "absent", False):
+            addons[_field_of(addon)].append(built)
     for addon in selected:
         for name in names[addon]:
             keywords.pop(name, None)

@@ -44,6 +44,22 @@ def construct_scene(self, *fields, **keywords):
     assign_fields(self, keywords)
     for contact in getattr(self, "contacts", ()):
         contact.check(self.dynamics)
+    check_friction(self)
+
+
+def check_friction(env) -> None:
+    """Refuse, by name, friction the step cannot integrate: on dynamics it cannot act on, more
+    than one friction add-on, or friction beside located contacts."""
+    friction = getattr(env, "friction", ())
+    for addon in friction:
+        addon.check(env.dynamics)
+    if len(friction) > 1:
+        raise ValueError(f"{type(env).__name__} takes at most one friction add-on, got {len(friction)}")
+    if friction and getattr(env, "contacts", ()):
+        raise ValueError(
+            f"{type(env).__name__}: Coulomb friction and located contacts (restitution, walls) cannot be "
+            "combined yet; give either the friction keywords or the contact ones"
+        )
 
 
 def gather_dynamics(cls, fields, keywords) -> None:

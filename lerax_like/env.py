@@ -240,7 +240,10 @@ class AbstractEnv(eqx.Module):
 
         A scene with contacts (a field `contacts` of `lerax_like.physics.contact` add-ons)
         is integrated segment by segment with its impacts located as events
-        (`lerax_like.hybrid`); its info also holds `impacts` and `first_impact_time`.
+        (`lerax_like.hybrid`); its info also holds `impacts` and `first_impact_time`. A
+        scene with Coulomb friction (a field `friction`, `lerax_like.physics.friction`) is
+        integrated mode by mode, stick and slip, its switches located (`lerax_like.stick_slip`);
+        its info also holds `switches`, `first_switch_time` and `friction_consistent`.
 
         The info holds `solver_ok`, `solver_steps` and `solver_rejected_steps`. A failed
         solve (non-finite state, exhausted step budget) keeps the pre-step state, so that
@@ -251,8 +254,16 @@ class AbstractEnv(eqx.Module):
         contacts = getattr(self, "contacts", ())
         t0 = episode_time(state.steps, self.dt)
         projection = self.project if self.projects_state() else None
+        friction = getattr(self, "friction", ())
         with forward_mode_hint(self.integrator.adjoint):
-            if contacts:
+            if friction:
+                from .stick_slip import integrate_with_friction
+
+                y, info = integrate_with_friction(
+                    self.integrator, physics, self.dynamics, friction[0], state.y, u, self.dt,
+                    projection=projection, t0=t0,
+                )
+            elif contacts:
                 from .hybrid import integrate_with_contacts
 
                 y, info = integrate_with_contacts(

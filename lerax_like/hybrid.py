@@ -59,7 +59,7 @@ from .physics.contact import AbstractContact, AbstractImpulseContact, with_coord
 # The share of `dt` that an env which has finished its step integrates again, discarded, while
 # the other envs of a vmapped batch finish theirs (`integrate_with_contacts`): any positive
 # share keeps that solve finite; a small one keeps it to one step.
-_IDLE_FRACTION = 2.0**-10
+IDLE_FRACTION = 2.0**-10
 
 
 @final
@@ -329,7 +329,7 @@ def integrate_with_contacts(
         # "non-finite input" (issue 29). So a finished env solves a short interval ending at
         # dt instead, from its own state, and its result is dropped here: finite by
         # construction, whatever the solver, controller and contact.
-        start = jnp.where(done, dt * (1 - _IDLE_FRACTION), t)
+        start = jnp.where(done, dt * (1 - IDLE_FRACTION), t)
         solution = diffrax.diffeqsolve(
             term, solver, t0=start, t1=dt, dt0=dt0, y0=y, args=(u, resting), stepsize_controller=controller,
             max_steps=integrator.max_steps, adjoint=adjoint, event=event, throw=False,

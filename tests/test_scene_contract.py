@@ -261,6 +261,10 @@ def test_energy_is_conserved_with_zero_input_where_claimed(name):
             # Impacts dissipate unless elastic: checked with restitution 1 (tests/test_contact.py
             # checks the energy lost at each impact).
             env = eqx.tree_at(lambda e: [c.restitution for c in e.contacts], env, replace_fn=jnp.ones_like)
+        if getattr(env, "friction", ()):
+            # Dry friction dissipates: checked with its coefficients zero (tests/test_friction_block.py
+            # checks a stop against its closed form).
+            env = eqx.tree_at(lambda e: e.friction, env, replace_fn=lambda f: jax.tree.map(jnp.zeros_like, f))
         env = _tight(env)
         state, _, _ = env.reset(key=jr.key(0))
         zero = jnp.zeros_like(env.physical_input(_sample_action(env, jr.key(1))))

@@ -15,7 +15,8 @@ call, not the arithmetic, is what a tight-tolerance SciPy solve pays for.
 import numpy as np
 
 
-def _solve_ivp():
+def scipy_solve_ivp():
+    """SciPy's `solve_ivp`, or an ImportError with the install hint."""
     try:
         from scipy.integrate import solve_ivp
     except ImportError as error:  # pragma: no cover - depends on the environment
@@ -80,7 +81,7 @@ def _solve(dynamics, y0s, inputs, dt, *, method, rtol, atol, fractions):
     import jax
     import jax.numpy as jnp
 
-    solve_ivp = _solve_ivp()
+    solve_ivp = scipy_solve_ivp()
     y0s = np.asarray(y0s, dtype=np.float64)
     batch, size = y0s.shape
     inputs = np.asarray(inputs, dtype=np.float64)

@@ -46,6 +46,7 @@ from .measurements import (
 )
 from .recording import environment_record as environment_record
 from .hybrid_reference import hybrid_reference_trajectories
+from .friction_reference import friction_reference_trajectories
 from .reference import dense_reference_trajectories
 from .scenes import SCENES, make_scene, reference_method
 from .sweeps import (
@@ -246,6 +247,9 @@ def _reference(env: AbstractEnv, config: StudyConfig, schedule: str, key, y0s: n
         if getattr(env, "contacts", ()):
             # Impacts located as events by SciPy too, restarted at each one.
             return hybrid_reference_trajectories(env, y0s, inputs, dt, fractions, method=method, rtol=tol, atol=tol)
+        if getattr(env, "friction", ()):
+            # Stick-slip switches located as events by SciPy too, restarted at each one.
+            return friction_reference_trajectories(env, y0s, inputs, dt, fractions, method=method, rtol=tol, atol=tol)
         return dense_reference_trajectories(env.physics, y0s, inputs, dt, fractions, method=method, rtol=tol, atol=tol)
 
     start = time.perf_counter()
@@ -281,8 +285,8 @@ def _row(
     solver_ok = bool(np.all(ok))
     deviation = np.max(np.abs(ys - reference.states), axis=-1)  # (B, T)
     dense = None
-    # A solver's dense output does not pass an impact: no dense errors through contact.
-    if solver_ok and not getattr(env, "contacts", ()):
+    # A solver's dense output does not pass an impact or a switch: no dense errors through them.
+    if solver_ok and not getattr(env, "contacts", ()) and not getattr(env, "friction", ()):
         dense = dense_errors(env, y0s, ys, inputs, _dense_fractions(config), reference.states, reference.inside)
     accepted = float(np.mean(np.sum(steps, axis=1)))
     attempted = accepted + float(np.mean(np.sum(rejected, axis=1)))

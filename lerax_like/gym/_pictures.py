@@ -305,7 +305,30 @@ def compass_gait(scene: AbstractEnv, state: np.ndarray, action) -> np.ndarray:
     return canvas.image()
 
 
+def sliding_block(scene: AbstractEnv, state: np.ndarray, action) -> np.ndarray:
+    """`SlidingBlockDynamics`: the block on its plane (rising to the right at `incline`), its
+    position `s` along the plane (positive up the slope), the push as an arrow along it."""
+    incline = value(scene.dynamics.incline)
+    along = np.array([math.cos(incline), math.sin(incline)])
+    normal = np.array([-math.sin(incline), math.cos(incline)])
+    position = state[0]
+    canvas = Canvas((position - 2.0, position + 2.0), (position * along[1] - 1.0, position * along[1] + 1.67))
+    far = 10.0 + abs(position)
+    canvas.below(tuple(position * along), tuple(along), FAINT)
+    canvas.segment(tuple(-far * along), tuple(far * along), 2.0, GROUND)
+    for mark in range(math.floor(position) - 3, math.floor(position) + 4):  # a tick every metre
+        canvas.segment(tuple(mark * along), tuple(mark * along - 0.08 * normal), 2.0, GROUND)
+    half = 0.25
+    centre = position * along + half * normal
+    corners = [centre + a * half * along + b * half * normal for a, b in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+    canvas.polygon([tuple(c) for c in corners], CART)
+    if action is not None:
+        push = float(np.asarray(scene.physical_input(action), dtype=np.float64)[0])
+        arrow(canvas, tuple(centre), tuple(0.05 * push * along))
+    return canvas.image()
+
+
 __all__ = [
     "Canvas", "acrobot", "arrow", "bouncing_ball", "cart_chain", "cart_pole", "chain", "compass_gait", "mountain_car",
-    "n_link_pendulum", "pendulum", "planar_quadrotor", "rimless_wheel", "simplest_walker", "value", "values", "van_der_pol",
+    "n_link_pendulum", "pendulum", "planar_quadrotor", "rimless_wheel", "simplest_walker", "sliding_block", "value", "values", "van_der_pol",
 ]

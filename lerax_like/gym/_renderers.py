@@ -32,6 +32,7 @@ from ..physics import (
 from ..physics.compass_gait import CompassGaitDynamics
 from ..physics.rimless_wheel import RimlessWheelDynamics
 from ..physics.simplest_walker import SimplestWalkerDynamics
+from ..physics.sliding_block import SlidingBlockDynamics
 from ..scenes import SCENES
 from . import _pictures as pictures
 from ._compiled import float64
@@ -50,6 +51,7 @@ _RENDERERS: dict[type, Renderer] = {
     RimlessWheelDynamics: pictures.rimless_wheel,
     SimplestWalkerDynamics: pictures.simplest_walker,
     CompassGaitDynamics: pictures.compass_gait,
+    SlidingBlockDynamics: pictures.sliding_block,
     VanDerPolDynamics: pictures.van_der_pol,
     SCENES["BouncingBall"]: pictures.bouncing_ball,
 }

@@ -31,3 +31,9 @@ from .rimless_wheel import RimlessWheelDynamics as RimlessWheelDynamics, SpokeCo
 from .walker import AbstractWalkerDynamics as AbstractWalkerDynamics, HeelStrike as HeelStrike
 from .simplest_walker import SimplestWalkerDynamics as SimplestWalkerDynamics
 from .compass_gait import CompassGaitDynamics as CompassGaitDynamics
+from .friction import (
+    AbstractCoulombFriction as AbstractCoulombFriction,
+    CartFriction as CartFriction,
+    PlaneFriction as PlaneFriction,
+)
+from .sliding_block import SlidingBlockDynamics as SlidingBlockDynamics

@@ -29,6 +29,7 @@ _REGISTERED = (
     "rimless_wheel:RimlessWheel",
     "simplest_walker:SimplestWalker",
     "compass_gait:CompassGait",
+    "sliding_block:SlidingBlock",
 )
 
 
@@ -112,6 +113,7 @@ from .planar_quadrotor import PlanarQuadrotor as PlanarQuadrotor  # noqa: E402
 from .rimless_wheel import RimlessWheel as RimlessWheel  # noqa: E402
 from .compass_gait import CompassGait as CompassGait  # noqa: E402
 from .simplest_walker import SimplestWalker as SimplestWalker  # noqa: E402
+from .sliding_block import SlidingBlock as SlidingBlock  # noqa: E402
 from .van_der_pol import VanDerPol as VanDerPol  # noqa: E402
 
 __all__ = [
@@ -132,6 +134,7 @@ __all__ = [
     "PlanarQuadrotor",
     "RimlessWheel",
     "SimplestWalker",
+    "SlidingBlock",
     "VanDerPol",
     "is_abstract_scene",
     "register_scene",

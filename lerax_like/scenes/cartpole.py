@@ -10,6 +10,7 @@ from ..integrate import Integrator
 from ..physics import CartPoleDynamics
 from ..physics.contact import Walls
 from ..physics.forces import EndStops, JointDamping
+from ..physics.friction import CartFriction
 from ..spaces import Box, Discrete
 from ._unit_action import AbstractUnitActionEnv
 
@@ -25,12 +26,13 @@ class AbstractCartPole(AbstractEnv):
     """
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
-    addons: ClassVar[tuple[type, ...]] = (JointDamping, EndStops, Walls)
+    addons: ClassVar[tuple[type, ...]] = (JointDamping, EndStops, Walls, CartFriction)
 
     dynamics: CartPoleDynamics = dynamics(CartPoleDynamics)
     integrator: Integrator = integrator("euler")
     forces: tuple = ()
     contacts: tuple = ()
+    friction: tuple = ()
     force_mag: Scalar = parameter(10.0, POSITIVE)
     theta_threshold_radians: Scalar = parameter(_TWELVE_DEGREES, POSITIVE_OR_INF)
     x_threshold: Scalar = parameter(2.4, POSITIVE_OR_INF)
@@ -105,6 +107,12 @@ class CartPole(AbstractCartPole):
       `EndStops`, one-sided spring-dampers: a soft contact that penetrates, whose
       stiffness forces many small steps (use `"tsit5"` or `"kvaerno5"`) and whose
       gradients are biased after an impact.
+    Coulomb friction of the cart on its rail (`CartFriction`, `lerax_like.physics.friction`):
+    `cart_static_friction` and `cart_kinetic_friction` (Barto et al.'s 0.0005 for one not
+    given; both zero build none), with `max_events`; stick and slip are modes of the step and
+    each switch is located (`lerax_like.stick_slip`, the page docs/friction.md), the normal
+    force read off the pole's motion (Florian's correction: it may change sign). Barto's
+    viscous pole friction is `joint_damping`. Not together with `restitution` walls.
     Stiff settings need an adaptive solver (`"tsit5"`) or an implicit one (`"kvaerno5"`).
     """
 
@@ -119,6 +127,7 @@ class CartPole(AbstractCartPole):
             integrator: Integrator = ...,
             forces: tuple = (),
             contacts: tuple = (),
+            friction: tuple = (),
             force_mag: ScalarLike = 10.0,
             theta_threshold_radians: ScalarLike = 0.20943951023931953,
             x_threshold: ScalarLike = 2.4,
@@ -141,6 +150,8 @@ class CartPole(AbstractCartPole):
             max_events: int | None = None,
             restitution: ScalarLike | None = None,
             min_rebound_speed: ScalarLike | None = None,
+            cart_static_friction: ScalarLike | None = None,
+            cart_kinetic_friction: ScalarLike | None = None,
         ) -> None: ...
     # (end of the constructor written by python -m lerax_like._constructor_source)
 
@@ -207,6 +218,7 @@ class CartPoleContinuous(AbstractCartPole, AbstractUnitActionEnv):
             integrator: Integrator = ...,
             forces: tuple = (),
             contacts: tuple = (),
+            friction: tuple = (),
             force_mag: ScalarLike = 10.0,
             theta_threshold_radians: ScalarLike = 0.20943951023931953,
             x_threshold: ScalarLike = 2.4,
@@ -230,6 +242,8 @@ class CartPoleContinuous(AbstractCartPole, AbstractUnitActionEnv):
             max_events: int | None = None,
             restitution: ScalarLike | None = None,
             min_rebound_speed: ScalarLike | None = None,
+            cart_static_friction: ScalarLike | None = None,
+            cart_kinetic_friction: ScalarLike | None = None,
             reward: Literal['gymnasium', 'smooth'] | None = None,
         ) -> None: ...
     # (end of the constructor written by python -m lerax_like._constructor_source)

@@ -10,6 +10,7 @@ from ..integrate import Integrator
 from ..physics.chain import CartChainDynamics
 from ..physics.contact import Walls
 from ..physics.forces import EndStops, JointDamping
+from ..physics.friction import CartFriction
 from ._unit_action import AbstractUnitActionEnv
 
 
@@ -67,6 +68,8 @@ class DoubleCartPole(AbstractUnitActionEnv):
     `track_limit`, either as walls located as events (`restitution`, with
     `min_rebound_speed` and `max_events`: an impulse-consistent impact, both poles' rates
     jump) or as penalty end stops (`end_stop_stiffness`, `end_stop_damping`), as `CartPole`.
+    Coulomb friction of the cart on its rail (`cart_static_friction`, `cart_kinetic_friction`),
+    stick and slip located as events, as `CartPole`.
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
@@ -83,6 +86,7 @@ class DoubleCartPole(AbstractUnitActionEnv):
             integrator: Integrator = ...,
             forces: tuple = (),
             contacts: tuple = (),
+            friction: tuple = (),
             force_mag: ScalarLike = 20.0,
             theta_threshold_radians: ScalarLike = 0.20943951023931953,
             x_threshold: ScalarLike = ...,
@@ -105,11 +109,13 @@ class DoubleCartPole(AbstractUnitActionEnv):
             max_events: int | None = None,
             restitution: ScalarLike | None = None,
             min_rebound_speed: ScalarLike | None = None,
+            cart_static_friction: ScalarLike | None = None,
+            cart_kinetic_friction: ScalarLike | None = None,
         ) -> None: ...
     # (end of the constructor written by python -m lerax_like._constructor_source)
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
-    addons: ClassVar[tuple[type, ...]] = (JointDamping, EndStops, Walls)
+    addons: ClassVar[tuple[type, ...]] = (JointDamping, EndStops, Walls, CartFriction)
     action_size: ClassVar[int] = 1
     action_scale: ClassVar[str] = "force_mag"
 
@@ -118,6 +124,7 @@ class DoubleCartPole(AbstractUnitActionEnv):
     integrator: Integrator = integrator("rk4")
     forces: tuple = ()
     contacts: tuple = ()
+    friction: tuple = ()
     force_mag: Scalar = parameter(20.0, POSITIVE)
     theta_threshold_radians: Scalar = parameter(12 * 2 * math.pi / 360, POSITIVE_OR_INF)
     x_threshold: Scalar = parameter(check=POSITIVE_OR_INF, default_from=_track_default)

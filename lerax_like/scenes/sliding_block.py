@@ -1,0 +1,108 @@
+from typing import TYPE_CHECKING, ClassVar, final
+
+import equinox as eqx
+import jax.numpy as jnp
+
+from .._fields import FINITE, NONNEGATIVE, POSITIVE, parameter
+from .._types import Array, Key, Scalar
+from ..env import EnvState, dynamics, episode_limit, integrator, time_step
+from ..integrate import Integrator
+from ..physics.friction import PlaneFriction
+from ..physics.sliding_block import SlidingBlockDynamics
+from ._unit_action import AbstractUnitActionEnv
+
+
+@final
+class SlidingBlock(AbstractUnitActionEnv):
+    """Push a block along an inclined plane with dry friction to a target position and hold it there.
+
+    ## Description
+    A block (`SlidingBlockDynamics`) on a plane inclined at `incline` (0: level), with
+    Coulomb friction (`PlaneFriction`): it sticks until the load along the plane exceeds
+    `static_friction * N` (`N = m g cos(incline)`), slides against `kinetic_friction * N`,
+    and sticks again where its speed reaches zero if the load can be held. Each switch is
+    an event located within the step (`lerax_like.stick_slip`), so a block at rest under
+    a sub-threshold load stays exactly at rest, and gradients pass through the switches.
+
+    ## Action Space
+    `Box(-1, 1, (1,))`, clipped to that range, scaled by `force_mag`: the force along the
+    plane in newtons, positive up the slope.
+
+    ## Observation Space
+    The state `[s, v]`: position along the plane (m, positive up the slope) and its rate
+    (m/s). Unbounded.
+
+    ## Rewards
+    `exp(-(s - target)**2) - action_cost * a**2` after the step, with `a` the clipped action:
+    1 at the target, falling off with the distance.
+
+    ## Starting State
+    Position and speed uniform in `(-0.05, 0.05)`.
+
+    ## Episode End
+    Never terminated but by a failed step (`info["solver_ok"]`: more switches in a step than
+    `max_events`, or an inconsistent slip); truncated after `max_episode_steps` (200) steps.
+
+    ## Arguments
+    `dynamics` (a `SlidingBlockDynamics`) or its parameters flat: `mass`, `gravity`,
+    `incline` (rad, in [0, pi/2)). The friction (`friction`, a one-tuple of `PlaneFriction`)
+    or its parameters flat: `static_friction` (0.5) and `kinetic_friction` (0.3, at most the
+    static one), `max_events` (switches per step). `force_mag` (10 N), `target` (1 m),
+    `action_cost`, `dt` (0.05 s), `integrator` or `solver` (`"tsit5"` by default; `"rk4"`),
+    `max_episode_steps`.
+    """
+
+    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+        import diffrax
+        from lerax_like._types import ScalarLike
+
+        def __init__(
+            self,
+            *,
+            dynamics: SlidingBlockDynamics = ...,
+            integrator: Integrator = ...,
+            friction: tuple = ...,
+            force_mag: ScalarLike = 10.0,
+            target: ScalarLike = 1.0,
+            action_cost: ScalarLike = 0.001,
+            dt: ScalarLike = 0.05,
+            max_episode_steps: int | None = 200,
+            mass: ScalarLike = 1.0,
+            gravity: ScalarLike = 9.81,
+            incline: ScalarLike = 0.0,
+            solver: str | diffrax.AbstractSolver | Integrator = 'tsit5',
+            stepsize_controller: diffrax.AbstractStepSizeController | None = None,
+            max_steps: int | None = None,
+            adjoint: diffrax.AbstractAdjoint | None = None,
+            substeps: int = 1,
+            max_events: int | None = None,
+            static_friction: ScalarLike | None = None,
+            kinetic_friction: ScalarLike | None = None,
+        ) -> None: ...
+    # (end of the constructor written by python -m lerax_like._constructor_source)
+
+    stochastic: ClassVar[bool] = False
+    addons: ClassVar[tuple[type, ...]] = (PlaneFriction,)
+    action_size: ClassVar[int] = 1
+    action_scale: ClassVar[str] = "force_mag"
+
+    dynamics: SlidingBlockDynamics = dynamics(SlidingBlockDynamics)
+    integrator: Integrator = integrator("tsit5")
+    friction: tuple = eqx.field(default_factory=lambda: (PlaneFriction(),))
+    force_mag: Scalar = parameter(10.0, POSITIVE)
+    target: Scalar = parameter(1.0, FINITE)
+    action_cost: Scalar = parameter(1e-3, NONNEGATIVE)
+    dt: Scalar = time_step(0.05)
+    max_episode_steps: int | None = episode_limit(200)
+
+    @property
+    def initial_bounds(self) -> tuple[Array, Array]:
+        return jnp.full(2, -0.05, self.dt.dtype), jnp.full(2, 0.05, self.dt.dtype)
+
+    def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
+        del state, key
+        return jnp.exp(-((next_state.y[0] - self.target) ** 2)) - self.action_cost * self.effort(action)
+
+    @property
+    def worst_reward(self) -> Scalar:
+        return -self.action_cost * jnp.ones((), self.dt.dtype)

@@ -1,0 +1,294 @@
+"""One env step of a scene with Coulomb friction: stick and slip integrated as modes, switches located.
+
+`integrate_with_friction` integrates over `[0, dt]` with the scene's `Integrator` segment by
+segment, each segment in one mode of the friction add-on (`lerax_like.physics.friction`):
+
+- mode `(s, sigma)`: `s = +1` or `-1` slipping in that direction, `s = 0` sticking; `sigma`
+  the sign of the normal force `N`, which `|N|` follows (Florian's correction).
+- slip: the friction force is `-mu_k sigma s N`, solved with `N` (affine in it); stick: the
+  sliding coordinate's rate and acceleration are exactly zero, so a block at rest under a
+  sub-threshold load stays at rest to the last bit for any horizon (no creep, no chatter).
+- a segment ends at the first located zero (`diffrax.Event`, bisection as for impacts,
+  `lerax_like.hybrid`) of: the slip speed `s q_k_dot` (slip ends), `sigma N` (the normal
+  force changes sign), `mu_s |N| - |f|` (a stick's force reaches its limit: release), and
+  `1 + mu_k sigma s dN/df` (slip becomes inconsistent, Painleve's case).
+- the next segment's mode: after a slip ends, stick if the holding force is within
+  `mu_s |N|`, else slip away in the direction of the load (a reversal through zero); after
+  a release, slip in the direction of the load; after `N` changes sign, `sigma` flips. At
+  a step's start the mode is read off the state (`q_k_dot == 0`: at rest, if it can hold).
+
+Every condition is read where it starts at zero or above and rises after a switch, and
+diffrax's falling-direction test (`direction=False`) never fires on such a start. A step
+that needs more than `max_events` switches, a segment that fails, or an inconsistent slip
+is a failed step (`info["solver_ok"]` False, `info["friction_consistent"]` says which),
+never silently cut short. Gradients through a switch are those of the hybrid flow: the
+switching time is differentiated implicitly (diffrax's root find).
+
+Under `vmap` every branch is computed for every env, so every division here has a
+denominator made safe where the branch is not taken ("double where"): a stick's `1 / w_kk`
+(`w_kk`, the inverse mass on `q_k`, is positive) and a slip's `1 / (1 + mu_k sigma s dN/df)`.
+
+The info holds `solver_ok`, `solver_steps`, `solver_rejected_steps`, `switches` (located in
+this step), `first_switch_time` (`inf` when none) and `friction_consistent`.
+"""
+
+from collections.abc import Callable
+from typing import NamedTuple, final
+
+import diffrax
+import equinox as eqx
+import equinox.internal as eqxi
+import jax
+import jax.numpy as jnp
+import optimistix
+
+from ._types import Array, Float, Input, ScalarLike, State
+from .hybrid import IDLE_FRACTION
+from .integrate import Integrator, ProjectedODETerm, SemiImplicitEuler
+from .physics import AbstractDynamics
+from .physics.contact import with_coordinates
+from .physics.friction import AbstractCoulombFriction
+
+
+@final
+class _TimeBisection(optimistix.Bisection):
+    """Bisection that stops when the bracket in time is within tolerance, whatever the condition's value.
+
+    `optimistix.Bisection` also asks `|condition| < atol`: a normal force of 10 N is
+    computed to about 1e-15 N, never below `atol` = 4 machine epsilons, and the root find
+    ran out of steps. The time bracket is what locates the switch.
+    """
+
+    def terminate(self, fn, y, args, options, state, tags):
+        del fn, args, options, tags
+        scale = self.atol + self.rtol * jnp.abs(y)
+        return jnp.abs(state.lower - state.upper) < scale, optimistix.RESULTS.successful
+
+
+# Which condition ended a segment (its index in `FrictionModes.conditions`).
+SLIP_ENDS, NORMAL_FLIPS, RELEASE, INCONSISTENT = range(4)
+
+
+class _Forces(NamedTuple):
+    """The friction forces of both modes in one state, and what they are made of."""
+
+    free: State  # the derivative without friction
+    unit: State  # its change per newton of friction on `q_k`
+    normal: Array  # `N` without friction
+    hold: Array  # the force that holds `q_k_dot = 0` (stick)
+    hold_normal: Array  # `N` under it
+    slip: Array  # the kinetic friction force of the mode's slip
+    slip_normal: Array  # `N` under it
+    denominator: Array  # `1 + mu_k sigma s dN/df`: a slip is consistent where it is > 0
+
+
+@final
+class FrictionModes(eqx.Module):
+    """The friction's modes seen from the step: forces, vector field, conditions, switches.
+
+    A mode is `(s, sigma)`, floats: `s` in {-1, 0, 1} (0: stick), `sigma` in {-1, 1}.
+    """
+
+    physics: AbstractDynamics
+    dynamics: AbstractDynamics
+    friction: AbstractCoulombFriction
+    t0: ScalarLike = 0.0  # the episode's time at the step's start: the field reads `t0 + t`
+
+    def forces(self, t, y: State, u: Input, mode) -> _Forces:
+        s, sigma = mode
+        t = self.t0 + t
+        k = self.friction.coordinate
+        q, _ = self.dynamics.coordinates(y)
+        # The other add-ons' generalised force (hinge damping), to which friction adds.
+        others = getattr(self.physics, "generalised_force", lambda y: jnp.zeros_like(q))(y)
+        unit_force = jnp.zeros_like(q).at[k].set(1.0)
+        field = lambda f: self.dynamics.forced_vector_field(t, y, u, others + f * unit_force)
+        free, unit = jax.jvp(field, (jnp.zeros((), y.dtype),), (jnp.ones((), y.dtype),))
+        _, acceleration = self.dynamics.coordinates(free)
+        _, per_force = self.dynamics.coordinates(unit)
+        normal, normal_per_force = jax.jvp(
+            lambda a: self.friction.normal_force(self.dynamics, y, a), (acceleration,), (per_force,)
+        )
+        inverse_mass = per_force[k]  # (M^-1)_kk, positive
+        hold = -acceleration[k] / jnp.where(inverse_mass > 0, inverse_mass, 1.0)
+        slope = self.friction.kinetic_friction * sigma * s
+        denominator = 1 + slope * normal_per_force
+        slip = -slope * normal / jnp.where(denominator > 0, denominator, 1.0)
+        return _Forces(
+            free, unit, normal, hold, normal + normal_per_force * hold, slip, normal + normal_per_force * slip, denominator
+        )
+
+    def vector_field(self, t: ScalarLike, y: State, args) -> State:
+        u, mode = args
+        forces = self.forces(t, y, u, mode)
+        stick = mode[0] == 0
+        derivative = forces.free + jnp.where(stick, forces.hold, forces.slip) * forces.unit
+        # At rest the sliding coordinate's rate and acceleration are zero exactly, not to
+        # round-off: a held block must not creep over 10^4 steps.
+        k = self.friction.coordinate
+        rates, accelerations = self.dynamics.coordinates(derivative)
+        held = with_coordinates(
+            self.dynamics, derivative, positions=rates.at[k].set(0.0), velocities=accelerations.at[k].set(0.0)
+        )
+        return jnp.where(stick, held, derivative)
+
+    def conditions(self, t, y: State, args) -> Float[Array, " 4"]:
+        """Positive within the mode; the first to fall through zero ends the segment (`SLIP_ENDS`, ...)."""
+        u, (s, sigma) = args
+        forces = self.forces(t, y, u, (s, sigma))
+        speed = self.dynamics.coordinates(y)[1][self.friction.coordinate]
+        slipping = s != 0
+        margin = self.friction.static_friction * jnp.abs(forces.hold_normal) - jnp.abs(forces.hold)
+        one = jnp.ones((), y.dtype)
+        return jnp.stack([
+            jnp.where(slipping, s * speed, one),
+            jnp.where(slipping, sigma * forces.slip_normal, one),
+            jnp.where(slipping, one, margin),
+            jnp.where(slipping, forces.denominator, one),
+        ])
+
+    def condition(self, t, y: State, args, **kwargs):
+        del kwargs
+        return jnp.min(self.conditions(t, y, args))
+
+    def settle(self, t, y: State, u: Input, mode, ended: Array, which: Array):
+        """The next segment's state and mode, and whether its slip is consistent.
+
+        After a segment that `ended` on the switch `which`, the switch's rule; at a step's
+        start, the mode read off the state: moving is slipping that way, at rest is held if
+        it can be, else slipping in the direction of the load.
+        """
+        s, sigma = mode
+        k = self.friction.coordinate
+        forces = self.forces(t, y, u, mode)
+        holds = jnp.abs(forces.hold) <= self.friction.static_friction * jnp.abs(forces.hold_normal)
+        away = -jnp.sign(forces.hold)
+        held_sign = jnp.where(forces.hold_normal >= 0, 1.0, -1.0).astype(y.dtype)
+        # A consistent slip's normal force has the sign of the frictionless one.
+        free_sign = jnp.where(forces.normal >= 0, 1.0, -1.0).astype(y.dtype)
+        speed = self.dynamics.coordinates(y)[1][k]
+        read_s = jnp.where(speed == 0, jnp.where(holds, 0.0, away), jnp.sign(speed))
+        read_sigma = jnp.where(speed == 0, held_sign, free_sign)
+        stops = ended & (which == SLIP_ENDS)
+        released = ended & (which == RELEASE)
+        new_s = jnp.where(stops, jnp.where(holds, 0.0, away), jnp.where(released, away, s))
+        new_sigma = jnp.where(stops | released, held_sign, jnp.where(ended & (which == NORMAL_FLIPS), -sigma, sigma))
+        new_s = jnp.where(ended, new_s, read_s)
+        new_sigma = jnp.where(ended, new_sigma, read_sigma)
+        # A slip that ends stops the coordinate exactly (it was located to a few ulps of zero).
+        _, rates = self.dynamics.coordinates(y)
+        y = jnp.where(stops, with_coordinates(self.dynamics, y, velocities=rates.at[k].set(0.0)), y)
+        # The new mode's slip must be consistent (Painleve), checked where it starts.
+        denominator = self.forces(t, y, u, (new_s, new_sigma)).denominator
+        consistent = ((new_s == 0) | (denominator > 0)) & ~(ended & (which == INCONSISTENT))
+        return y, (new_s, new_sigma), consistent
+
+
+def integrate_with_friction(
+    integrator: Integrator,
+    physics: AbstractDynamics,
+    dynamics: AbstractDynamics,
+    friction: AbstractCoulombFriction,
+    y0: State,
+    u: Input,
+    dt: ScalarLike,
+    *,
+    projection: Callable[[State], State] | None = None,
+    t0: ScalarLike = 0.0,
+) -> tuple[State, dict[str, Array]]:
+    """Solve over `[0, dt]` from `y0` with the friction's stick-slip switches located (module docstring);
+    the vector field reads the episode's time `t0 + s`.
+
+    `physics` is the dynamics with any force add-ons (`ForcedDynamics`), whose generalised
+    force the friction adds to; `dynamics` the scene's own physics module.
+    """
+    adjoint = integrator.adjoint
+    if isinstance(adjoint, diffrax.BacksolveAdjoint):
+        raise ValueError(
+            "adjoint BacksolveAdjoint cannot differentiate through located events (diffrax refuses "
+            "events with it): use with_adjoint(env, 'checkpoint') (reverse mode) or 'forward' (jacfwd)"
+        )
+    modes = FrictionModes(physics=physics, dynamics=dynamics, friction=friction, t0=t0)
+    dtype = y0.dtype
+    dt = jnp.asarray(dt, dtype=dtype)
+    solver = integrator.solver
+    if isinstance(solver, SemiImplicitEuler):
+        term = ProjectedODETerm(modes.vector_field, velocity_indices=physics.velocity_indices)
+    else:
+        term = diffrax.ODETerm(modes.vector_field)
+    controller = integrator.stepsize_controller
+    dt0 = dt / integrator.substeps if isinstance(controller, diffrax.ConstantStepSize) else None
+    tolerance = 4 * float(jnp.finfo(dtype).eps)
+    event = diffrax.Event(
+        modes.condition,
+        root_finder=_TimeBisection(rtol=tolerance, atol=tolerance, flip=True),
+        direction=False,
+    )
+
+    def segment(carry, _):
+        done = carry[1] >= dt
+        return jax.lax.cond(eqxi.unvmap_any(~done), solve_segment, lambda carry: carry, carry), None
+
+    def solve_segment(carry):
+        y, t, mode, ended, which, ok, consistent, steps, rejected, switches, first = carry
+        done = t >= dt
+        settled, new_mode, fits = modes.settle(t, y, u, mode, ended, which)
+        y = jnp.where(done, y, settled)
+        mode = jax.tree.map(lambda new, old: jnp.where(done, old, new), new_mode, mode)
+        consistent = consistent & (done | fits)
+        # A finished env of a vmapped batch solves a short interval ending at dt, its result
+        # dropped: over the empty [dt, dt] diffrax's steps are not finite, and reverse mode
+        # turns that into NaN for the whole batch (as in `hybrid.integrate_with_contacts`).
+        start = jnp.where(done, dt * (1 - IDLE_FRACTION), t)
+        solution = diffrax.diffeqsolve(
+            term, solver, t0=start, t1=dt, dt0=dt0, y0=y, args=(u, mode), stepsize_controller=controller,
+            max_steps=integrator.max_steps, adjoint=adjoint, event=event, throw=False,
+        )
+        result = solution.result
+        solved = (result == diffrax.RESULTS.successful) | (result == diffrax.RESULTS.event_occurred)
+        event_ended = (result == diffrax.RESULTS.event_occurred) & ~done
+        end = jnp.where(done, y, solution.ys[-1])
+        t_end = jnp.where(done, dt, solution.ts[-1])
+        # The condition nearest zero at the event is the one that fell.
+        which = jnp.argmin(modes.conditions(t_end, end, (u, mode)))
+        accepted = jnp.where(done, 0, solution.stats["num_accepted_steps"])
+        tried = jnp.where(done, 0, solution.stats["num_steps"])
+        return (
+            end,
+            t_end,
+            mode,
+            event_ended,
+            which,
+            ok & (done | solved),
+            consistent,
+            steps + accepted,
+            rejected + tried - accepted,
+            switches + event_ended.astype(int),
+            jnp.where(event_ended & (first == jnp.inf), t_end, first),
+        )
+
+    zero = jnp.zeros((), dtype=int)
+    mode = (jnp.zeros((), dtype), jnp.ones((), dtype))
+    initial = (
+        y0, jnp.zeros((), dtype), mode, jnp.asarray(False), zero, jnp.asarray(True), jnp.asarray(True),
+        zero, zero, zero, jnp.asarray(jnp.inf, dtype),
+    )
+    final, _ = jax.lax.scan(segment, initial, None, length=friction.max_events + 1)
+    y, t, _, _, _, ok, consistent, steps, rejected, switches, first = final
+    finite = jnp.all(jnp.isfinite(y))
+    if projection is not None:
+        y = projection(y)
+    # Switches left over when the budget ran out: the step did not reach dt.
+    ok = ok & consistent & (t >= dt) & finite & jnp.all(jnp.isfinite(y))
+    info = {
+        "solver_ok": ok,
+        "solver_steps": steps,
+        "solver_rejected_steps": rejected,
+        "switches": switches,
+        "first_switch_time": first,
+        "friction_consistent": consistent,
+    }
+    return y, info
+
+
+__all__ = ["FrictionModes", "integrate_with_friction"]
