@@ -203,6 +203,12 @@ class _Clock(eqx.Module):
         jax.debug.callback(_TIMES.append, t)
         return self.dynamics.vector_field(t, y, u)
 
+    def forced_vector_field(self, t, y, u, generalised_force):
+        # The field under a generalised force, which located friction calls in place of
+        # `vector_field` (lerax_like.stick_slip).
+        jax.debug.callback(_TIMES.append, t)
+        return self.dynamics.forced_vector_field(t, y, u, generalised_force)
+
     def __getattr__(self, name):
         # Everything else (velocity_indices, coordinates, a contact's reads) is the dynamics'.
         if name == "dynamics" or name.startswith("__"):

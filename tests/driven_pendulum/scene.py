@@ -1,5 +1,6 @@
 """Keep a driven damped pendulum near the bottom with a bounded extra torque."""
 
+import math
 from typing import ClassVar, final
 
 import jax
@@ -69,3 +70,16 @@ class DrivenPendulum(ll.AbstractUnitActionEnv):
     @property
     def worst_reward(self) -> jax.Array:
         return -_ERROR_CAP - self.action_cost
+
+
+@ll.gym.register_renderer(DrivenPendulum)
+def draw_driven_pendulum(scene: DrivenPendulum, state, action):
+    """Its picture (`lerax_like.gym.render_frame`): a rod of unit length hanging from its pivot
+    at angle `theta` from the downward vertical."""
+    canvas = ll.gym.Canvas((-1.5, 1.5), (-1.25, 0.75))
+    theta = float(state[0])
+    bob = (math.sin(theta), -math.cos(theta))
+    canvas.segment((0.0, 0.0), bob, 8.0, (202, 152, 101))
+    canvas.disc(bob, 10.0, (129, 132, 203))
+    canvas.disc((0.0, 0.0), 4.0, (0, 0, 0))
+    return canvas.image()
