@@ -28,7 +28,7 @@ def _episode_limit(value) -> IntScalar | None:
     return jnp.asarray(array, dtype=int)
 
 
-def episode_time(steps: IntScalar, dt: Scalar) -> Scalar:
+def episode_time(steps: IntScalar | int, dt: Scalar) -> Scalar:
     """The time since the episode's start after `steps` env steps of `dt` (0 after a reset).
 
     `steps * dt`, computed rather than carried: one rounding of `k dt`, within half an ulp of

@@ -77,6 +77,8 @@ class GrazingGuardController(GuardedPIDController):
         keep, next_t0, next_t1, made_jump, state, result = super().adapt_step_size(
             t0, t1, y0, y1_candidate, args, y_error, error_order, controller_state
         )
+        if self.guard is None:
+            raise TypeError("GrazingGuardController needs its guard")
         fraction = self.guard(t0, t1, y0, y1_candidate, args)
         dip = fraction < 1
         keep = keep & ~dip
@@ -334,6 +336,7 @@ def integrate_with_contacts(
             term, solver, t0=start, t1=dt, dt0=dt0, y0=y, args=(u, resting), stepsize_controller=controller,
             max_steps=integrator.max_steps, adjoint=adjoint, event=event, throw=False,
         )
+        assert solution.ys is not None and solution.ts is not None  # diffeqsolve's default SaveAt(t1=True)
         result = solution.result
         solved = (result == diffrax.RESULTS.successful) | (result == diffrax.RESULTS.event_occurred)
         accepted = jnp.where(done, 0, solution.stats["num_accepted_steps"])

@@ -33,7 +33,7 @@ this step), `first_switch_time` (`inf` when none) and `friction_consistent`.
 """
 
 from collections.abc import Callable
-from typing import NamedTuple, final
+from typing import Any, NamedTuple, final
 
 import diffrax
 import equinox as eqx
@@ -90,7 +90,9 @@ class FrictionModes(eqx.Module):
     """
 
     physics: AbstractDynamics
-    dynamics: AbstractDynamics
+    # Duck-typed: an `AbstractDynamics` with `coordinates` and `forced_vector_field` (what
+    # `AbstractCoulombFriction.check` asks for), a chain's or a sliding block's.
+    dynamics: Any
     friction: AbstractCoulombFriction
     t0: ScalarLike = 0.0  # the episode's time at the step's start: the field reads `t0 + t`
 
@@ -247,6 +249,7 @@ def integrate_with_friction(
         result = solution.result
         solved = (result == diffrax.RESULTS.successful) | (result == diffrax.RESULTS.event_occurred)
         event_ended = (result == diffrax.RESULTS.event_occurred) & ~done
+        assert solution.ys is not None and solution.ts is not None  # diffeqsolve's default SaveAt(t1=True)
         end = jnp.where(done, y, solution.ys[-1])
         t_end = jnp.where(done, dt, solution.ts[-1])
         # The condition nearest zero at the event is the one that fell.

@@ -84,7 +84,7 @@ def convergence_orders(rows: Iterable[dict[str, Any]], *, ceiling: float = 1e-2)
         group = sorted(group, key=lambda row: row["dt"])
         step_sizes = [row["dt"] for row in group]
         floor = max(10 * max(row["reference_floor"] for row in group), ROUNDOFF_FLOOR)
-        entry = {"scene": scene, "schedule": schedule, "solver": solver}
+        entry: dict[str, Any] = {"scene": scene, "schedule": schedule, "solver": solver}
         errors = [row["error"] for row in group]
         entry["order"], entry["points"] = fit_order(step_sizes, errors, floor=floor, ceiling=ceiling)
         if "order" in group[0] and not math.isnan(group[0]["order"]):

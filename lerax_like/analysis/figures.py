@@ -275,10 +275,11 @@ def plot_work_precision(
     for axis in axes_by_panel.values():
         axis.grid(True, which="major", alpha=0.3)
         _tidy_log_ticks(axis)
-    figure.failed_settings = [
+    failed_settings = [
         {"label": row["label"], "setting": row["setting"], "failure": row.get("failure") or "unknown"} for row in failed
     ]
-    notes = [f"failed: {f['label']} at {f['setting']}: {f['failure']}" for f in figure.failed_settings]
+    setattr(figure, "failed_settings", failed_settings)  # an attribute of our own on matplotlib's Figure
+    notes = [f"failed: {f['label']} at {f['setting']}: {f['failure']}" for f in failed_settings]
     # The notes under the legend: a line of 7-point text is about 10 points of the figure's height.
     notes_height = (len(notes) * 10 / (72 * figure.get_figheight()) + 0.01) if notes else 0.0
     if notes:

@@ -20,7 +20,7 @@ Works for any dynamics with `front_gap` and `heel_strike` (the walkers, `Rimless
 """
 
 import dataclasses
-from typing import NamedTuple
+from typing import NamedTuple, cast
 
 import diffrax
 import equinox as eqx
@@ -30,7 +30,7 @@ import numpy as np
 import optimistix
 
 from .._types import Array, Float, Scalar, State
-from ..physics import AbstractDynamics
+from ..physics import AbstractDynamics, AbstractWalkerDynamics
 
 
 class Step(NamedTuple):
@@ -106,12 +106,15 @@ def step_to_step(
         args=jax.lax.stop_gradient(dynamics), stepsize_controller=controller, max_steps=100_000, event=event, throw=False,
     )
     ok = located.result == diffrax.RESULTS.event_occurred
+    assert located.ts is not None  # diffeqsolve's default SaveAt(t1=True)
     time = jax.lax.stop_gradient(located.ts[-1])
     solution = diffrax.diffeqsolve(
         term, diffrax.Dopri8(), t0=0.0, t1=time, dt0=None, y0=y0, args=dynamics,
         stepsize_controller=controller, max_steps=100_000, adjoint=diffrax.ForwardMode(), throw=False,
     )
+    assert solution.ys is not None  # diffeqsolve's default SaveAt(t1=True)
     y = solution.ys[-1]
+    walker = cast(AbstractWalkerDynamics, dynamics)  # front_gap and heel_strike: a walker's
     field = lambda z: dynamics.vector_field(time, z, zero_input)
     rate, curvature = jax.jvp(field, (y,), (field(y),))
 
@@ -120,14 +123,14 @@ def step_to_step(
 
     def newton(shift):
         z = later(shift)
-        gap, gap_rate = jax.jvp(dynamics.front_gap, (z,), (rate + curvature * shift,))
+        gap, gap_rate = jax.jvp(walker.front_gap, (z,), (rate + curvature * shift,))
         return shift - gap / gap_rate
 
     # Two Newton steps: the first gives the time's first derivatives exactly, the second
     # its second derivatives (what `gait_sensitivity` reads through the Jacobian).
     shift = newton(newton(jnp.zeros_like(time)))
     ok = ok & (solution.result == diffrax.RESULTS.successful)
-    return Step(dynamics.heel_strike(later(shift)), time + shift, ok)
+    return Step(walker.heel_strike(later(shift)), time + shift, ok)
 
 
 step_to_step_jit = eqx.filter_jit(step_to_step)

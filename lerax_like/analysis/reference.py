@@ -12,6 +12,8 @@ that each SciPy step costs one compiled call for the whole batch: the Python ove
 call, not the arithmetic, is what a tight-tolerance SciPy solve pays for.
 """
 
+from typing import Any
+
 import numpy as np
 
 
@@ -105,7 +107,7 @@ def _solve(dynamics, y0s, inputs, dt, *, method, rtol, atol, fractions):
         def jac(s, y, u, t0):
             return np.asarray(jacobian(np.float64(t0 + s), y, u))
 
-        options = {"jac": jac} if method in IMPLICIT_METHODS else {}
+        options: dict[str, Any] = {"jac": jac} if method in IMPLICIT_METHODS else {}
         y = np.reshape(y0s, (-1,))
         states = np.empty((len(inputs), batch * size), dtype=np.float64)
         inside = np.empty((len(inputs), len(fractions) if dense else 0, batch * size), dtype=np.float64)

@@ -207,7 +207,7 @@ def write_study(
                                          fit_ceiling=result.config.fit_ceiling)
             paths["png"] = stem + ".png"
             figure_record = {"path": os.path.basename(paths["png"]), "legend": figure.legend_labels,
-                             "failed": figure.failed_settings}
+                             "failed": getattr(figure, "failed_settings")}
         else:
             figure_record = {"skipped": f"matplotlib is not installed: {PLOT_HINT}"}
     write_json(result, paths["json"], figure=figure_record, **extra)

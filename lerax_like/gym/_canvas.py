@@ -105,12 +105,12 @@ class Canvas:
         # edges (a floor, a slope) would otherwise be measured over its whole box.
         margin = half + 1
         low_t, high_t = 0.0, 1.0
-        for start, step, limit in ((a[0], along[0], self.width), (a[1], along[1], self.height)):
+        for origin, step, limit in ((a[0], along[0], self.width), (a[1], along[1], self.height)):
             if abs(step) < 1e-12:
-                if not -margin <= start <= limit + margin:
+                if not -margin <= origin <= limit + margin:
                     return
                 continue
-            t_0, t_1 = sorted(((-margin - start) / step, (limit + margin - start) / step))
+            t_0, t_1 = sorted(((-margin - origin) / step, (limit + margin - origin) / step))
             low_t, high_t = max(low_t, t_0), min(high_t, t_1)
         if low_t > high_t:
             return

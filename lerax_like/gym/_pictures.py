@@ -9,12 +9,29 @@ the slope, the wall) at every frame, so a scene whose parameters change is drawn
 """
 
 import math
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
 from ..env import AbstractEnv
 from ..physics.ball import FloorAndWall
 from ._canvas import Canvas
+
+if TYPE_CHECKING:  # for the casts below only: each picture reads its own scene's fields
+    from ..physics import (
+        AcrobotDynamics,
+        CartChainDynamics,
+        CartPoleDynamics,
+        CompassGaitDynamics,
+        NLinkPendulumDynamics,
+        PendulumDynamics,
+        PlanarQuadrotorDynamics,
+        RimlessWheelDynamics,
+        SimplestWalkerDynamics,
+        SlidingBlockDynamics,
+    )
+    from ..scenes.bouncing_ball import BouncingBall
+    from ..scenes.mountain_car import AbstractMountainCar
 
 
 CART: tuple[int, int, int] = (0, 0, 0)
@@ -86,20 +103,20 @@ def _cart_and_poles(scene: AbstractEnv, x: float, angles, lengths) -> np.ndarray
 def cart_pole(scene: AbstractEnv, state: np.ndarray, action) -> np.ndarray:
     """`CartPoleDynamics`: state `[x, x_dot, theta, theta_dot]`, one pole of `2 half_length`."""
     del action
-    return _cart_and_poles(scene, state[0], state[2:3], [2 * value(scene.dynamics.half_length)])
+    return _cart_and_poles(scene, state[0], state[2:3], [2 * value(cast("CartPoleDynamics", scene.dynamics).half_length)])
 
 
 def cart_chain(scene: AbstractEnv, state: np.ndarray, action) -> np.ndarray:
     """`CartChainDynamics`: state `[x, theta_1, ..., theta_n, rates]`, poles of `pole_lengths`."""
     del action
-    lengths = values(scene.dynamics.pole_lengths)
+    lengths = values(cast("CartChainDynamics", scene.dynamics).pole_lengths)
     return _cart_and_poles(scene, state[0], state[1 : 1 + lengths.size], lengths)
 
 
 def n_link_pendulum(scene: AbstractEnv, state: np.ndarray, action) -> np.ndarray:
     """`NLinkPendulumDynamics`: rods of `lengths` from a fixed pivot, angles from upright."""
     del action
-    lengths = values(scene.dynamics.lengths)
+    lengths = values(cast("NLinkPendulumDynamics", scene.dynamics).lengths)
     reach = float(np.sum(lengths)) + 0.2
     canvas = Canvas((-reach, reach), (-reach, reach))
     canvas.segment((-0.15, 0.0), (0.15, 0.0), 4.0, GROUND)  # the mount of the pivot
@@ -110,7 +127,7 @@ def n_link_pendulum(scene: AbstractEnv, state: np.ndarray, action) -> np.ndarray
 def pendulum(scene: AbstractEnv, state: np.ndarray, action) -> np.ndarray:
     """`PendulumDynamics`: a rod of `length` from its pivot, `theta` from upright counter-clockwise (Gymnasium's)."""
     del action
-    length = value(scene.dynamics.length)
+    length = value(cast("PendulumDynamics", scene.dynamics).length)
     reach = length + 0.2
     canvas = Canvas((-reach, reach), (-reach, reach))
     chain(canvas, (0.0, 0.0), [-state[0]], [length])
@@ -124,7 +141,7 @@ def acrobot(scene: AbstractEnv, state: np.ndarray, action) -> np.ndarray:
     The dynamics has no second length (it does not enter the motion); the second rod is
     drawn uniform, twice its `link_com_position_2` (Gymnasium's 1 m)."""
     del action
-    dynamics = scene.dynamics
+    dynamics = cast("AcrobotDynamics", scene.dynamics)
     lengths = [value(dynamics.link_length_1), 2 * value(dynamics.link_com_position_2)]
     reach = sum(lengths) + 0.2
     canvas = Canvas((-reach, reach), (-reach, reach))
@@ -138,6 +155,7 @@ def mountain_car(scene: AbstractEnv, state: np.ndarray, action) -> np.ndarray:
     """`MountainCarDynamics`: the car on the hill `0.45 sin(3 x) + 0.55` (Gymnasium's,
     whose slope is the dynamics' `cos(3 x)`) between the scene's bounds, the flag at its goal."""
     del action
+    scene = cast("AbstractMountainCar", scene)
     low, high = value(scene.min_position), value(scene.max_position)
     canvas = Canvas((low, high), (0.0, 1.25))
     xs = np.linspace(low, high, 31)
@@ -161,7 +179,7 @@ def planar_quadrotor(scene: AbstractEnv, state: np.ndarray, action) -> np.ndarra
     """`PlanarQuadrotorDynamics`: the body (its arm to scale) at `(x, z)` tilted by `theta`,
     each rotor's thrust an arrow (half a metre for the weight's share), the box
     `position_limit` and the target at the origin."""
-    dynamics = scene.dynamics
+    dynamics = cast("PlanarQuadrotorDynamics", scene.dynamics)
     limit = value(getattr(scene, "position_limit", 2.0))
     canvas = Canvas((-limit - 0.3, limit + 0.3), (-limit - 0.3, limit + 0.3))
     corners = [(-limit, -limit), (-limit, limit), (limit, limit), (limit, -limit)]
@@ -190,6 +208,7 @@ def planar_quadrotor(scene: AbstractEnv, state: np.ndarray, action) -> np.ndarra
 
 def bouncing_ball(scene: AbstractEnv, state: np.ndarray, action) -> np.ndarray:
     """`BouncingBall`: the floor, the wall of its `FloorAndWall`, the target, the ball and its thrust."""
+    scene = cast("BouncingBall", scene)
     walls = [contact.wall_position for contact in scene.contacts if isinstance(contact, FloorAndWall)]
     wall = value(walls[0]) if walls else math.inf
     right = wall + 0.3 if math.isfinite(wall) else 1.5
@@ -221,7 +240,7 @@ def rimless_wheel(scene: AbstractEnv, state: np.ndarray, action) -> np.ndarray:
     The state holds no distance travelled, so the view follows the hub; the picture is
     continuous through a heel strike (the new stance spoke is the one that landed)."""
     del action
-    dynamics = scene.dynamics
+    dynamics = cast("RimlessWheelDynamics", scene.dynamics)
     length, alpha, slope = value(dynamics.leg_length), value(dynamics.spoke_half_angle), value(dynamics.slope)
     theta = state[0]
     canvas = Canvas((-1.6 * length, 1.6 * length), (-1.2 * length, 0.8 * length))
@@ -276,7 +295,7 @@ def simplest_walker(scene: AbstractEnv, state: np.ndarray, action) -> np.ndarray
     stance leg's angle from the slope's normal (positive with the hip uphill of the foot),
     `phi` the angle from the stance leg to the swing leg; the stance leg darker."""
     del action
-    slope = value(scene.dynamics.slope)
+    slope = value(cast("SimplestWalkerDynamics", scene.dynamics).slope)
     theta, phi = state[0], state[1]
     # In the slope's frame (x downhill along it, y along its normal), then turned by the slope.
     turn = np.array([[math.cos(slope), math.sin(slope)], [-math.sin(slope), math.cos(slope)]])
@@ -291,7 +310,7 @@ def compass_gait(scene: AbstractEnv, state: np.ndarray, action) -> np.ndarray:
     """`CompassGaitDynamics`, seen from its stance foot: each leg at its angle from the
     vertical (positive downhill, foot to hip), the stance leg darker, the leg masses as discs."""
     del action
-    dynamics = scene.dynamics
+    dynamics = cast("CompassGaitDynamics", scene.dynamics)
     a, b = value(dynamics.lower_length), value(dynamics.upper_length)
     length, slope = a + b, value(dynamics.slope)
     theta_s, theta_w = state[0], state[1]
@@ -308,7 +327,7 @@ def compass_gait(scene: AbstractEnv, state: np.ndarray, action) -> np.ndarray:
 def sliding_block(scene: AbstractEnv, state: np.ndarray, action) -> np.ndarray:
     """`SlidingBlockDynamics`: the block on its plane (rising to the right at `incline`), its
     position `s` along the plane (positive up the slope), the push as an arrow along it."""
-    incline = value(scene.dynamics.incline)
+    incline = value(cast("SlidingBlockDynamics", scene.dynamics).incline)
     along = np.array([math.cos(incline), math.sin(incline)])
     normal = np.array([-math.sin(incline), math.cos(incline)])
     position = state[0]

@@ -31,6 +31,8 @@ def require_pygame() -> None:
 
 
 def _renderer_class(spec: GymSpec) -> type:
+    if spec.renderer is None:  # callers ask only for a spec drawn by Gymnasium's env
+        raise ValueError(f"{spec!r} has no Gymnasium renderer")
     module, name = spec.renderer.split(":")
     return getattr(importlib.import_module(module), name)
 
@@ -39,7 +41,8 @@ def render_fps(spec: GymSpec) -> int:
     """Gymnasium's frame rate for its envs; real time (one frame per default `dt`) for the others."""
     if spec.renderer is not None:
         return _renderer_class(spec).metadata["render_fps"]
-    dt = {field.name: field.default for field in dataclasses.fields(spec.scene)}["dt"]
+    defaults: dict[str, Any] = {field.name: field.default for field in dataclasses.fields(spec.scene)}
+    dt = defaults["dt"]
     return max(1, round(1 / float(dt)))
 
 

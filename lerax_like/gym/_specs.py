@@ -154,7 +154,7 @@ def _within(low: np.ndarray, high: np.ndarray, unit: np.ndarray) -> np.ndarray:
 def _own_spec(scene: type[AbstractEnv]) -> GymnasiumSpec:
     """The id of a scene that stands for no Gymnasium env: `<scene class>-v0`, its
     episode length the scene's default, drawn by lerax_like's own renderer."""
-    defaults = {field.name: field.default for field in dataclasses.fields(scene)}
+    defaults: dict[str, Any] = {field.name: field.default for field in dataclasses.fields(scene)}
     return GymnasiumSpec(
         name=f"{scene.__name__}-v0", max_episode_steps=defaults.get("max_episode_steps"), reward_threshold=None
     )

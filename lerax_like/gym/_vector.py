@@ -1,6 +1,6 @@
 """`GymnasiumVectorEnv`: many copies of a scene stepped by one compiled, batched step."""
 
-from typing import Any
+from typing import Any, cast
 
 import gymnasium
 import numpy as np
@@ -263,7 +263,8 @@ class GymnasiumVectorEnv(VectorEnv):
         if self._renderer is None:
             self._renderer = _render.make_renderer(self._gym_spec, "rgb_array")
         action = None if self.last_action is None else self.last_action[index]
-        return self._renderer.draw(self.batch.scene_at(index), states[:, index], action)
+        # An rgb_array renderer: its draw returns the frame.
+        return cast(np.ndarray, self._renderer.draw(self.batch.scene_at(index), states[:, index], action))
 
     def _frames(self) -> list[np.ndarray]:
         return [self.frame(index) for index in range(self.num_envs)]

@@ -256,6 +256,7 @@ class Integrator(eqx.Module):
             vector_field, dt, options.get("t0", 0.0), projection, options.get("velocity_indices")
         )
         solution = self._solve(term, y0, u, dt, dt0, adjoint=self.adjoint)
+        assert solution.ys is not None  # saved at t1
         y1 = solution.ys[-1]
         finite = bool(jnp.all(jnp.isfinite(y1))) and (projection is None or bool(jnp.all(jnp.isfinite(projection(y1)))))
         words = (  # diffrax's results are not hashable: pairs, not a dict

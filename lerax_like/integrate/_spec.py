@@ -8,6 +8,7 @@ import importlib
 import linecache
 import os
 import traceback
+from typing import Any
 
 import diffrax
 
@@ -38,7 +39,7 @@ def solver_from_spec(spec: str) -> "str | diffrax.AbstractSolver":
         raise ValueError(f"solver {spec!r}: building it failed: {failed_check(error)}") from None
 
 
-def attribute_from_spec(spec: str, what: str):
+def attribute_from_spec(spec: str, what: str) -> Any:
     """The object `module:attribute` names, imported from `sys.path`; `ValueError` naming the failure."""
     module_name, _, attribute = spec.partition(":")
     try:
@@ -82,7 +83,7 @@ def failed_check(error: BaseException) -> str:
     innermost = frames[-1] if frames else None
     where = "" if user is None else f" at {os.path.basename(user.filename)}:{user.lineno}"
     if isinstance(error, AssertionError) and not str(error) and innermost is not None:
-        check = (innermost.line or linecache.getline(innermost.filename, innermost.lineno)).strip()
+        check = (innermost.line or linecache.getline(innermost.filename, innermost.lineno or 0)).strip()
         meaning = next((words for key, words in _TABLEAU_CHECKS.items() if key in check), None)
         owner = "diffrax's ButcherTableau" if "diffrax" in innermost.filename else os.path.basename(innermost.filename)
         text = f"{owner} check `{check}` failed{where}"

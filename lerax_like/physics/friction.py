@@ -19,7 +19,7 @@ a scene built without friction holds and computes none of it.
 """
 
 import abc
-from typing import TYPE_CHECKING, ClassVar, final
+from typing import TYPE_CHECKING, Any, ClassVar, final
 
 import equinox as eqx
 import jax
@@ -115,7 +115,8 @@ class CartFriction(AbstractCoulombFriction):
     def kinetic_friction(self) -> Scalar:
         return self.cart_kinetic_friction
 
-    def normal_force(self, dynamics, y: State, acceleration: Float[Array, " q"]) -> Scalar:
+    # `dynamics: Any`: duck-typed, whatever has the fields `check` asks for.
+    def normal_force(self, dynamics: Any, y: State, acceleration: Float[Array, " q"]) -> Scalar:
         q, q_dot = dynamics.coordinates(y)
         potential = lambda p: dynamics.energy(
             with_coordinates(dynamics, y, positions=p, velocities=jnp.zeros_like(q_dot))
@@ -153,7 +154,8 @@ class PlaneFriction(AbstractCoulombFriction):
     static_friction: Scalar = parameter(0.5, NONNEGATIVE)
     kinetic_friction: Scalar = parameter(0.3, NONNEGATIVE)
 
-    def normal_force(self, dynamics, y: State, acceleration: Float[Array, " q"]) -> Scalar:
+    # `dynamics: Any`: duck-typed, whatever has the fields `check` asks for.
+    def normal_force(self, dynamics: Any, y: State, acceleration: Float[Array, " q"]) -> Scalar:
         del y, acceleration
         return dynamics.mass * dynamics.gravity * jnp.cos(dynamics.incline)
 

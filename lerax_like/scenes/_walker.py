@@ -1,9 +1,12 @@
 """What the walkers' scenes share: walk at a target speed with a bounded torque, until a fall."""
 
+from typing import cast
+
 import equinox as eqx
 import jax.numpy as jnp
 
 from .._types import Array, BoolScalar, Key, Scalar
+from ..physics.walker import AbstractWalkerDynamics
 from ..env import EnvState
 from ._unit_action import AbstractUnitActionEnv
 
@@ -23,7 +26,7 @@ class AbstractWalkerEnv(AbstractUnitActionEnv):
 
     def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
         del state, key
-        error = (self.dynamics.hip_speed(next_state.y) - self.target_speed) ** 2
+        error = (cast(AbstractWalkerDynamics, self.dynamics).hip_speed(next_state.y) - self.target_speed) ** 2
         return -jnp.minimum(error, self.max_cost) - self.action_cost * self.effort(action)
 
     @property
@@ -32,7 +35,7 @@ class AbstractWalkerEnv(AbstractUnitActionEnv):
 
     def terminal(self, state: EnvState, *, key: Key | None) -> BoolScalar:
         del key
-        return jnp.abs(self.dynamics.stance_angle(state.y)) >= self.fall_angle
+        return jnp.abs(cast(AbstractWalkerDynamics, self.dynamics).stance_angle(state.y)) >= self.fall_angle
 
 
 __all__ = ["AbstractWalkerEnv"]
