@@ -21,7 +21,7 @@ BASELINE = ROOT / ".basedpyright" / "baseline.json"
 # The baseline's size (2026-11-26; 110 when the check came in, before the first fixes): it
 # may only shrink. Lower it as errors are fixed; never raise it (`--writebaseline` to hide a
 # new error is what this refuses).
-BASELINE_LIMIT = 101
+BASELINE_LIMIT = 91
 
 pytestmark = pytest.mark.slow  # one basedpyright run over the package: 40-110 s on 2 loaded cores
 
