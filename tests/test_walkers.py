@@ -213,6 +213,17 @@ def test_simplest_walker_against_scipy(simplest_gaits):
 
 
 @pytest.mark.slow
+def test_simplest_walker_loses_stability_where_the_paper_says():
+    """Garcia et al., section 5.1: stable period-one gaits "for slopes of 0 < gamma < 0.0151", lost as "the period-one
+    eigenvalue passes through -1" (5.2). To the four decimals printed: stable at 0.01505, a flip past -1 at 0.01515."""
+    for gamma, stable in ((0.01505, True), (0.01515, False)):
+        gait = find_gait(SimplestWalkerDynamics(slope=gamma), _simplest_guess(gamma))
+        assert gait.converged and gait.stable == stable
+        largest = gait.eigenvalues[0]
+        assert abs(largest.imag) < 1e-12 and -1.02 < largest.real < -0.98  # real, near -1: a period doubling
+
+
+@pytest.mark.slow
 def test_simplest_walker_stance_angle_scales_as_the_cube_root_of_slope():
     """theta* ~ gamma^(1/3) (Garcia et al.'s small-slope scaling), fitted over a decade of slope."""
     # Continued down from the paper's slope, each start the last gait scaled by the law
