@@ -851,10 +851,28 @@ def render(folder: pathlib.Path, link: str, quick: bool) -> str:
     return "\n".join(lines).rstrip() + "\n"
 
 
+# Docs pages that show a benchmark's table between `<!-- NAME table: ... -->` and
+# `<!-- end of the NAME table -->`: rewritten with RESULTS.md, so that the page and the record agree.
+DOCS_TABLES = {"gradient_cost": HERE.parent / "docs" / "gradients.md"}
+
+
+def _write_docs_tables(folder) -> None:
+    for name, page in DOCS_TABLES.items():
+        text = page.read_text()
+        start = text.index(f"<!-- {name} table:")
+        start = text.index("\n", start) + 1
+        end = text.index(f"<!-- end of the {name} table -->")
+        link = os.path.relpath(folder, page.parent)
+        body = provenance(folder, name) + SECTIONS[name](folder, link)
+        page.write_text(text[:start] + "\n".join(body).strip() + "\n" + text[end:])
+
+
 def write_results(quick: bool = False) -> pathlib.Path:
     folder = results_dir(quick)
     path = folder / "RESULTS.md" if quick else HERE / "RESULTS.md"
     link = os.path.relpath(folder, path.parent)
     folder.mkdir(parents=True, exist_ok=True)
     path.write_text(render(folder, link, quick))
+    if not quick:
+        _write_docs_tables(folder)
     return path
