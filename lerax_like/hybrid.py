@@ -60,6 +60,11 @@ from .physics.contact import AbstractContact, AbstractImpulseContact, with_coord
 # the other envs of a vmapped batch finish theirs (`integrate_with_contacts`): any positive
 # share keeps that solve finite; a small one keeps it to one step.
 IDLE_FRACTION = 2.0**-10
+# A surface struck again within this share of `dt` of its last impact has come to rest: the
+# bounces of a Zeno sequence are shorter than the step can resolve. A fixed-step solver can
+# reach it at a speed above `min_rebound_speed`: semi-implicit Euler pushed into a wall
+# (restitution e, push a, step h) settles on impacts at h a / (1 + e), not on ever slower ones.
+ZENO_FRACTION = 2.0**-30
 
 
 @final
@@ -199,35 +204,36 @@ class _Surfaces(eqx.Module):
         q, _ = self.dynamics.coordinates(y) if self._mechanical else (y, None)
         return 64 * jnp.finfo(y.dtype).eps * (1 + jnp.max(jnp.abs(q)))
 
-    def settle(self, t, y: State, u: Input):
+    def settle(self, t, y: State, u: Input, again: Bool[Array, " k"]):
         """At a segment's start `t`: impacts, rest and release, and the re-placement just off the surfaces.
 
-        Returns the state, the resting surfaces and the number of impacts applied. All of it
-        is skipped when no state (of a vmapped batch) touches a surface.
+        `again` marks the surfaces struck at a segment start within `ZENO_FRACTION` of `dt`
+        before: struck again, they come to rest instead. Returns the state, the resting
+        surfaces and the surfaces struck. All of it is skipped when no state (of a vmapped
+        batch) touches a surface.
         """
         touching = self.gaps(y) <= 2 * self.offset(y)
         return jax.lax.cond(
             eqxi.unvmap_any(jnp.any(touching)),
-            lambda t, y, u: self._settle(t, y, u),
-            lambda t, y, u: (y, jnp.zeros_like(touching), jnp.zeros((), dtype=int)),
-            t, y, u,
+            lambda t, y, u, again: self._settle(t, y, u, again),
+            lambda t, y, u, again: (y, jnp.zeros_like(touching), jnp.zeros_like(touching)),
+            t, y, u, again,
         )
 
-    def _settle(self, t, y: State, u: Input):
+    def _settle(self, t, y: State, u: Input, again: Bool[Array, " k"]):
         offset = self.offset(y)
-        impacts = jnp.zeros((), dtype=int)
         start = 0
         sizes = self.sizes(y)
-        touching_all, candidates_all = [], []
+        touching_all, hits_all, candidates_all = [], [], []
         for contact, size in zip(self.contacts, sizes):
             for local in range(size):
                 gap = contact.gaps(self.dynamics, y)[local]
                 rate = jax.jvp(lambda z: contact.gaps(self.dynamics, z)[local], (y,), (self.physics.vector_field(self.t0 + t, y, u),))[1]
                 touching = gap <= 2 * offset
-                hit = touching & (rate < 0)
+                hit = touching & (rate < 0) & ~again[start + local]
                 y = jnp.where(hit, contact.impact(self.dynamics, y, local), y)
-                impacts = impacts + hit.astype(int)
                 touching_all.append(touching)
+                hits_all.append(hit)
             start += size
         touching = jnp.stack(touching_all)
         # Rest: touching surfaces of impulse contacts whose normal speed is below the rebound
@@ -237,7 +243,9 @@ class _Surfaces(eqx.Module):
             if isinstance(contact, AbstractImpulseContact):
                 speeds = contact.normal_speeds(self.dynamics, y)
                 for local in range(size):
-                    slow = touching[start + local] & (jnp.abs(speeds[local]) < contact.min_rebound_speed)
+                    slow = touching[start + local] & (
+                        (jnp.abs(speeds[local]) < contact.min_rebound_speed) | again[start + local]
+                    )
                     candidates_all.append(slow)
                     y = jnp.where(slow, contact.set_normal_speed(self.dynamics, y, local, 0.0), y)
             else:
@@ -257,7 +265,7 @@ class _Surfaces(eqx.Module):
                     moved = with_coordinates(self.dynamics, y, positions=q + (offset - gap) * row / (row @ row))
                     y = jnp.where(touching[start + local], moved, y)
             start += size
-        return y, resting, impacts
+        return y, resting, jnp.stack(hits_all)
 
     @property
     def _mechanical(self) -> bool:
@@ -315,13 +323,17 @@ def integrate_with_contacts(
         return jax.lax.cond(eqxi.unvmap_any(~done), checkpointed_segment, lambda carry: carry, carry), None
 
     def solve_segment(carry):
-        y, t, resting, ok, steps, rejected, impacts, first = carry
+        y, t, resting, ok, steps, rejected, impacts, first, struck, struck_at = carry
         done = t >= dt
-        settled, new_resting, hits = surfaces.settle(t, y, u)
+        again = struck & (t - struck_at <= ZENO_FRACTION * dt)
+        settled, new_resting, hit = surfaces.settle(t, y, u, again)
         y = jnp.where(done, y, settled)
         resting = jnp.where(done, resting, new_resting)
-        hits = jnp.where(done, 0, hits)
+        hit = hit & ~done
+        hits = jnp.sum(hit, dtype=int)
         first = jnp.where((hits > 0) & (first == jnp.inf), t, first)
+        struck_at = jnp.where(hits > 0, t, struck_at)
+        struck = jnp.where(hits > 0, hit, struck)
         # An env that has reached dt still runs this segment while another env of a vmapped
         # batch has not, and diffrax's step loop runs its steps too, their results dropped by
         # a select. Over the empty interval [dt, dt] those steps are not finite (diffrax
@@ -350,6 +362,8 @@ def integrate_with_contacts(
             rejected + tried - accepted,
             impacts + hits,
             first,
+            struck,
+            struck_at,
         )
         return carry
 
@@ -359,8 +373,12 @@ def integrate_with_contacts(
     checkpointed_segment = jax.checkpoint(solve_segment, prevent_cse=False)
     resting = jnp.zeros_like(surfaces.gaps(y0), dtype=bool)
     zero = jnp.zeros((), dtype=int)
-    initial = (y0, jnp.zeros((), dtype), resting, jnp.asarray(True), zero, zero, zero, jnp.asarray(jnp.inf, dtype))
-    (y, t, _, ok, steps, rejected, impacts, first), _ = jax.lax.scan(segment, initial, None, length=max_events + 1)
+    never = jnp.asarray(-jnp.inf, dtype)
+    initial = (
+        y0, jnp.zeros((), dtype), resting, jnp.asarray(True), zero, zero, zero, jnp.asarray(jnp.inf, dtype),
+        jnp.zeros_like(resting), never,
+    )
+    (y, t, _, ok, steps, rejected, impacts, first, _, _), _ = jax.lax.scan(segment, initial, None, length=max_events + 1)
     finite = jnp.all(jnp.isfinite(y))
     if projection is not None:
         y = projection(y)

@@ -73,7 +73,8 @@ ENVS = 4
 # Steps of the rollout: a few, except where a contact scene needs more to reach an impact
 # from every start (a ball dropped from 0.5 to 1.5 m lands after 16 to 28 steps of 0.02 s;
 # a rimless wheel's next spoke strikes within 12 steps of 0.05 s; a walled cart within 12).
-STEPS = {"BouncingBall": 30, "RimlessWheel": 14}
+STEPS = {"BouncingBall": 30, "RimlessWheel": 14, "SimplestWalker": 50, "CompassGait": 45}
+# (a walker's first heel strike comes after 35 to 46 env steps from its resets)
 DEFAULT_STEPS = 5
 WALL_STEPS = 12
 # Adaptive and implicit presets: autodiff differentiates the discrete solution with its
@@ -113,14 +114,16 @@ def _walled(scene):
 ALL_PAIRS = os.environ.get("LERAX_LIKE_ALL_GRADIENT_PAIRS") == "1"
 EVERY_PRESET_ON = ("Pendulum", "CartPoleContinuous+walls")
 ALSO = {("BouncingBall", "euler"), ("BouncingBall", "tsit5")}
-# The walkers' first heel strike comes after about one step period (40 env steps), beyond a
-# short rollout: their gradients through heel strikes are checked by tests/test_walkers.py
-# (the return map's Jacobian against central differences).
-NOT_IN_CI = ("SimplestWalker", "CompassGait")
-# Measured (CI run of 0f5194b): with located walls, semi-implicit Euler fails a solve
-# (`solver_ok` False) in this rollout; not investigated yet.
-KNOWN_FAILING = {("CartPoleContinuous+walls", "semi_implicit_euler"), ("CartPole+walls", "semi_implicit_euler")}
-
+# The simplest walker's rollout loss is not differentiable in the initial state at two of the
+# four resets (measured over 50 steps, one heel strike each: central differences at h and h/2
+# disagree by a factor 2 and more, the AD derivative by 1.08 and 0.29 relative), so it is not a
+# pair this comparison applies to; its return map's Jacobian is checked against central
+# differences and SciPy's variational equations in tests/test_walkers.py.
+NOT_IN_CI = ("SimplestWalker",)
+# Measured: with the discrete cart-pole's 10 N push into a wall, semi-implicit Euler's
+# rollout makes 4 impacts at some of the loss's shifted points and 5 at others (a different
+# hybrid path within h = 1e-4): the loss is not smooth at those starts.
+KNOWN_FAILING = {("CartPole+walls", "semi_implicit_euler")}
 
 def _default_preset(scene) -> str | None:
     """The preset name of a scene's default integrator (None: one of its own)."""
@@ -163,7 +166,7 @@ def _params():
         slow = ll.make_integrator(preset).adaptive or _has_contacts(name)
         marks = [pytest.mark.slow] if slow else []
         if (name, preset) in KNOWN_FAILING:
-            marks.append(pytest.mark.xfail(strict=True, reason="a solve fails with located walls (measured, not investigated)"))
+            marks.append(pytest.mark.xfail(strict=True, reason="the loss is not smooth at these starts (see KNOWN_FAILING)"))
         params.append(pytest.param(name, preset, make, steps, marks=marks, id=f"{name}-{preset}"))
     return params
 
