@@ -283,7 +283,7 @@ def format_solver_table() -> str:
     from .integrate import SOLVERS
 
     header = ("name", "order", "stages", "f-evals/step", "kind", "error estimate", "default controller", "description")
-    lines = [header]
+    lines: list[tuple[str, ...]] = [header]
     for preset in SOLVERS.values():
         lines.append((
             preset.name, str(preset.order), "" if preset.stages is None else str(preset.stages),

@@ -13,7 +13,7 @@ everything else calls: `rollout`, the Gymnasium layer, the studies.
 """
 
 import abc
-from typing import TYPE_CHECKING, Any, ClassVar, NamedTuple
+from typing import TYPE_CHECKING, Any, ClassVar, Generic, NamedTuple, TypeVar, overload
 
 import equinox as eqx
 import jax
@@ -26,9 +26,9 @@ from ._fields import POSITIVE, concrete, parameter
 from ._random import uniform
 from ._signatures import Constructor, scene_keywords
 from .gradients import forward_mode_hint
-from ._types import Array, BoolScalar, Float, Input, IntScalar, Key, Scalar, State
+from ._types import Array, ArrayLike, BoolScalar, Float, Input, IntScalar, Key, Scalar, State
 from .integrate import Integrator, make_integrator
-from .physics import AbstractDynamics
+from .physics import AbstractChainDynamics, AbstractDynamics
 from .spaces import AbstractSpace, Box, eager_spaces
 
 
@@ -61,14 +61,18 @@ class EnvState(eqx.Module):
     steps: IntScalar
 
 
-class StepKeys(NamedTuple):
+# The type of a step's reset key: a `Key` where the step was given one (`step`), else `Key | None`.
+_ResetKey = TypeVar("_ResetKey", bound=Key | None)
+
+
+class StepKeys(NamedTuple, Generic[_ResetKey]):
     """The keys of one step's parts; `None` for every part but `reset` in a deterministic env."""
 
     transition: Key | None
     observation: Key | None
     reward: Key | None
     terminal: Key | None
-    reset: Key | None
+    reset: _ResetKey
 
 
 class Attempt(NamedTuple):
@@ -82,7 +86,11 @@ class Attempt(NamedTuple):
     observation's and the reward's finiteness to `solver_ok`."""
 
 
-def step_keys(key: Key | None, stochastic: bool) -> StepKeys:
+@overload
+def step_keys(key: Key, stochastic: bool) -> StepKeys[Key]: ...
+@overload
+def step_keys(key: Key | None, stochastic: bool) -> StepKeys[Key | None]: ...
+def step_keys(key: Key | None, stochastic: bool) -> StepKeys[Any]:
     """The keys of a step's parts: the one key derivation of the package.
 
     A stochastic env's parts each get `jr.fold_in(key, i)`: unlike `jr.split(key, 5)`,
@@ -92,6 +100,8 @@ def step_keys(key: Key | None, stochastic: bool) -> StepKeys:
     hash, as much as a draw.
     """
     if stochastic:
+        if key is None:
+            raise ValueError("a stochastic env's step needs a key, got key=None")
         return StepKeys(*(jr.fold_in(key, i) for i in range(5)))
     return StepKeys(None, None, None, None, key)
 
@@ -190,11 +200,15 @@ class AbstractEnv(eqx.Module):
     @property
     def physics(self) -> AbstractDynamics:
         """What a step integrates: `dynamics`, with the scene's add-on forces if it has any."""
-        if not getattr(self, "forces", ()):
+        forces = getattr(self, "forces", ())
+        if not forces:
             return self.dynamics
         from .physics.forces import ForcedDynamics
 
-        return ForcedDynamics(dynamics=self.dynamics, forces=self.forces)
+        dynamics = self.dynamics
+        if not isinstance(dynamics, AbstractChainDynamics):  # the add-ons' `check` refused it at construction
+            raise TypeError(f"{type(self).__name__}'s forces act on a cart or a chain, not on {type(dynamics).__name__}")
+        return ForcedDynamics(dynamics=dynamics, forces=forces)
 
     @classmethod
     def projects_state(cls) -> bool:
@@ -325,7 +339,7 @@ class AbstractEnv(eqx.Module):
         return state, self.observation(state, key=keys.observation)
 
     def advance(
-        self, state: EnvState, action: Array, *, key: Key | None
+        self, state: EnvState, action: ArrayLike, *, key: Key | None
     ) -> tuple[EnvState, Array, Scalar, BoolScalar, dict[str, Array]]:
         """One step without time limit or reset: the step semantics, defined once.
 
@@ -361,7 +375,7 @@ class AbstractEnv(eqx.Module):
         trial = self.attempt(state, action, key=key)
         return self.conclude(state, trial, self.observation(state, key=keys.observation), key=key)
 
-    def attempt(self, state: EnvState, action: Array, *, key: Key | None) -> "Attempt":
+    def attempt(self, state: EnvState, action: ArrayLike, *, key: Key | None) -> "Attempt":
         """The first half of `advance`: the step as integrated and observed, with the solve's
         and the action's checks (`info["solver_ok"]`, `info["action_ok"]`), before the
         failure rule (`conclude`).
@@ -374,9 +388,11 @@ class AbstractEnv(eqx.Module):
         action = self.action_space.check(action, "action")
         self.check_state(state)
         action_ok = self.action_space.admissible(action)
-        if concrete(action_ok) is not None and not bool(action_ok):
-            space = self.action_space
-            raise ValueError(f"action {concrete(action).tolist()} is not admissible in {space}: it must be {space.rule}")
+        ok = concrete(action_ok)
+        if ok is not None and not bool(ok):
+            space, shown = self.action_space, concrete(action)
+            action_text = action if shown is None else shown.tolist()
+            raise ValueError(f"action {action_text} is not admissible in {space}: it must be {space.rule}")
         keys = step_keys(key, self.stochastic)
         next_state, info = self.transition(state, action, key=keys.transition)
         observation = self.observation(next_state, key=keys.observation)
@@ -435,10 +451,12 @@ def rollout(
     each step on the way back (`jax.checkpoint`); values and gradients are the same. Storing every
     step's solver internals instead (`False`) took 75 GB for 1024 `BouncingBall`s x 100 steps.
     """
-    if env.stochastic and key is None:
-        raise ValueError(f"{type(env).__name__} is stochastic: rollout needs a key")
     # A deterministic env's steps get no key (`None`, an empty pytree to `scan`).
-    keys = jr.split(key, actions.shape[0]) if env.stochastic else None
+    keys = None
+    if env.stochastic:
+        if key is None:
+            raise ValueError(f"{type(env).__name__} is stochastic: rollout needs a key")
+        keys = jr.split(key, actions.shape[0])
 
     def body(state, inputs):
         action, step_key = inputs

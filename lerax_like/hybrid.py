@@ -53,7 +53,7 @@ import optimistix
 from ._types import Array, Bool, Float, Input, ScalarLike, State
 from .integrate import GuardedPIDController, Integrator, ProjectedODETerm, SemiImplicitEuler
 from .physics import AbstractDynamics
-from .physics.contact import AbstractContact, AbstractImpulseContact, with_coordinates
+from .physics.contact import AbstractContact, AbstractImpulseContact, MechanicalDynamics, with_coordinates
 
 
 # The share of `dt` that an env which has finished its step integrates again, discarded, while
@@ -146,7 +146,7 @@ class _Surfaces(eqx.Module):
         for contact, size in zip(self.contacts, self.sizes(y)):
             if isinstance(contact, AbstractImpulseContact):
                 mask = resting[start : start + size]
-                _, acceleration = self.dynamics.coordinates(derivative)
+                _, acceleration = self.mechanics.coordinates(derivative)
                 _, change = contact.resting_force(self.dynamics, y, acceleration, mask)
                 derivative = with_coordinates(self.dynamics, derivative, velocities=acceleration + change)
             start += size
@@ -166,7 +166,7 @@ class _Surfaces(eqx.Module):
             if isinstance(contact, AbstractImpulseContact):
                 # Read here, not before the loop: a scene's own contact (a rimless wheel's
                 # spokes) needs no generalised coordinates of its dynamics.
-                _, acceleration = self.dynamics.coordinates(derivative)
+                _, acceleration = self.mechanics.coordinates(derivative)
                 force, _ = contact.resting_force(self.dynamics, y, acceleration, resting[start : start + size])
             else:
                 force = jnp.zeros((size,), y.dtype)
@@ -201,7 +201,7 @@ class _Surfaces(eqx.Module):
 
     def offset(self, y: State):
         """How far off a surface a state is re-placed: 64 machine epsilons, scaled by the coordinates."""
-        q, _ = self.dynamics.coordinates(y) if self._mechanical else (y, None)
+        q, _ = self.mechanics.coordinates(y) if self._mechanical else (y, None)
         return 64 * jnp.finfo(y.dtype).eps * (1 + jnp.max(jnp.abs(q)))
 
     def settle(self, t, y: State, u: Input, again: Bool[Array, " k"]):
@@ -261,11 +261,19 @@ class _Surfaces(eqx.Module):
                 for local in range(size):
                     gap = contact.gaps(self.dynamics, y)[local]
                     row = contact.jacobian(self.dynamics, y)[local]
-                    q, _ = self.dynamics.coordinates(y)
+                    q, _ = self.mechanics.coordinates(y)
                     moved = with_coordinates(self.dynamics, y, positions=q + (offset - gap) * row / (row @ row))
                     y = jnp.where(touching[start + local], moved, y)
             start += size
         return y, resting, jnp.stack(hits_all)
+
+    @property
+    def mechanics(self) -> MechanicalDynamics:
+        """The dynamics as an impulse contact reads them: `coordinates` and `energy` (which
+        its `check` required at construction)."""
+        if not isinstance(self.dynamics, MechanicalDynamics):
+            raise TypeError(f"{type(self.dynamics).__name__} has no generalised coordinates and energy")
+        return self.dynamics
 
     @property
     def _mechanical(self) -> bool:

@@ -20,6 +20,9 @@ from ._types import Array, ArrayLike, BoolScalar, Key
 
 
 class AbstractSpace(eqx.Module):
+    shape: eqx.AbstractVar[tuple[int, ...]]
+    """The shape of an element (`()` for a discrete space)."""
+
     @abc.abstractmethod
     def sample(self, *, key: Key) -> Array:
         """A random element of the space."""
@@ -91,8 +94,9 @@ class Discrete(AbstractSpace):
 class Box(AbstractSpace):
     """The box `low <= x <= high` of a given shape (bounds may be infinite)."""
 
-    low: Array
-    high: Array
+    # NumPy where the bounds are known without tracing (see the module's docstring).
+    low: Array | np.ndarray
+    high: Array | np.ndarray
     shape: tuple[int, ...] = eqx.field(static=True)
 
     def __init__(self, low: ArrayLike, high: ArrayLike, shape: tuple[int, ...] | None = None):

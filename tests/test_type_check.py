@@ -18,10 +18,12 @@ import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 BASELINE = ROOT / ".basedpyright" / "baseline.json"
-# The baseline's size (2026-11-26; 110 when the check came in, before the first fixes): it
+# The baseline's size (2026-11-26; 110 when the check came in, 91 before the last fixes): it
 # may only shrink. Lower it as errors are fixed; never raise it (`--writebaseline` to hide a
-# new error is what this refuses).
-BASELINE_LIMIT = 91
+# new error is what this refuses). The one left is scenes/mountain_car.py's `goal_position`
+# (an `eqx.AbstractVar`, which a type checker takes for a field without a default, declared
+# after fields with defaults); at 0, delete the baseline and this limit.
+BASELINE_LIMIT = 1
 
 pytestmark = pytest.mark.slow  # one basedpyright run over the package: 40-110 s on 2 loaded cores
 

@@ -135,7 +135,7 @@ def precision_at_horizons(
     }
 
 
-def _crossing(horizons: Sequence[float], log_difference: Sequence[float]) -> float | None:
+def _crossing(horizons: np.ndarray, log_difference: np.ndarray) -> float | None:
     """The horizon where `log_difference` first turns positive (log-linear interpolation),
     the first horizon if it already is, None if it never does."""
     if log_difference[0] >= 0:
@@ -159,12 +159,12 @@ def variance_crossover(
     Agreement: both crossovers None, or within a factor of 2 of each other.
     """
     h = np.asarray(horizons, dtype=float)
-    first = np.asarray(first, dtype=float)
-    zeroth = np.asarray(zeroth, dtype=float)
-    measured = _crossing(h, np.log(first) - np.log(zeroth))
-    predicted_first = np.log(first[0]) + 2 * exponent * (h - h[0]) * dt
-    predicted = _crossing(h, predicted_first - np.log(zeroth))
-    growth = float(np.polyfit(h * dt, 0.5 * np.log(first), 1)[0]) if len(h) > 1 else math.nan
+    log_first = np.log(np.asarray(first, dtype=float))
+    log_zeroth = np.log(np.asarray(zeroth, dtype=float))
+    measured = _crossing(h, log_first - log_zeroth)
+    predicted_first = log_first[0] + 2 * exponent * (h - h[0]) * dt
+    predicted = _crossing(h, predicted_first - log_zeroth)
+    growth = float(np.polyfit(h * dt, 0.5 * log_first, 1)[0]) if len(h) > 1 else math.nan
     if measured is None or predicted is None:
         agree = measured is None and predicted is None
     else:

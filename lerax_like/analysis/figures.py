@@ -287,7 +287,7 @@ def plot_work_precision(
     legend_labels = list(handles)
     figure.legend(list(handles.values()), legend_labels, loc="lower center", ncol=min(len(handles), 6),
                   fontsize="small", frameon=False, bbox_to_anchor=(0.5, notes_height))
-    figure.legend_labels = legend_labels
+    setattr(figure, "legend_labels", legend_labels)  # an attribute of our own on matplotlib's Figure
     scene = selected[0]["scene"]
     title = title or f"{scene}: work-precision, {schedule} actions, {horizon} env steps of {selected[0]['env_dt']:g} s"
     figure.suptitle(title)

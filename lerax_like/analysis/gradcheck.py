@@ -120,7 +120,7 @@ def gradcheck(
 
     Finite differences are computed in float64; call it with `jax_enable_x64` on.
     """
-    if not jax.config.jax_enable_x64:
+    if not jax.config.read("jax_enable_x64"):
         raise RuntimeError("gradcheck needs float64: set jax.config.update('jax_enable_x64', True)")
     if mode not in ("reverse", "forward"):
         raise ValueError(f"mode must be 'reverse' or 'forward', got {mode!r}")

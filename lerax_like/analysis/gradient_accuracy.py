@@ -48,8 +48,8 @@ def reference_integrator(rtol: float = 1e-12, dtmax: float = math.inf) -> Integr
     """Dopri8 at tight tolerances (`atol = rtol / 100`): the stand-in for the continuous system."""
     # Tolerances and largest step as arrays, not Python floats or None: they are then
     # traced leaves, and the reference and its floor estimate share one compilation.
-    rtol = jnp.asarray(rtol)
-    controller = diffrax.PIDController(rtol=rtol, atol=rtol * 1e-2, dtmax=jnp.asarray(dtmax))
+    relative = jnp.asarray(rtol)
+    controller = diffrax.PIDController(rtol=relative, atol=relative * 1e-2, dtmax=jnp.asarray(dtmax))
     return make_integrator("dopri8", controller, max_steps=100_000)
 
 

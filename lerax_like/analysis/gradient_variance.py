@@ -388,7 +388,7 @@ def _crossovers(config, rows, solver: str, kind: str, exponent: float, dt: float
     return out
 
 
-def summary(result: GradientVarianceResult) -> dict[str, Any]:
+def summary(result: GradientVarianceResult) -> list[dict[str, Any]]:
     """The study's answers in a few numbers, per solver and policy (for the JSON and the terminal).
 
     - `first_order_below_zeroth_order`: the horizons (per sigma) where the first-order
@@ -439,7 +439,7 @@ def summary(result: GradientVarianceResult) -> dict[str, Any]:
 def format_gradient_variance_table(rows: Sequence[dict[str, Any]]) -> str:
     """A fixed-width table of the rows, for the terminal."""
     header = ("solver", "policy", "H", "sigma", "estimator", "norm", "variance", "bias (se)")
-    lines = [header]
+    lines: list[tuple[str, ...]] = [header]
     for r in rows:
         lines.append((
             r["solver"], r["policy"], str(r["horizon"]), f"{r['sigma']:g}", r["estimator"],

@@ -79,9 +79,11 @@ def evaluations_per_step(solver: diffrax.AbstractSolver) -> tuple[int, int, int]
     as `lerax_like.solver_facts` counts them; `None` for implicit solvers, whose count
     depends on the root finder."""
     facts = solver_facts(solver)
-    if facts.evaluations_per_step is None:
+    counts = facts.evaluations_per_step, facts.evaluations_per_rejected_step, facts.evaluations_per_solve
+    per_step, per_rejected_step, per_solve = counts
+    if per_step is None or per_rejected_step is None or per_solve is None:  # all None or none
         return None
-    return facts.evaluations_per_step, facts.evaluations_per_rejected_step, facts.evaluations_per_solve
+    return per_step, per_rejected_step, per_solve
 
 
 @eqx.filter_jit

@@ -206,7 +206,7 @@ def write_study(
             figure = plot_work_precision(result.rows, stem + ".png", title=title,
                                          fit_ceiling=result.config.fit_ceiling)
             paths["png"] = stem + ".png"
-            figure_record = {"path": os.path.basename(paths["png"]), "legend": figure.legend_labels,
+            figure_record = {"path": os.path.basename(paths["png"]), "legend": getattr(figure, "legend_labels"),
                              "failed": getattr(figure, "failed_settings")}
         else:
             figure_record = {"skipped": f"matplotlib is not installed: {PLOT_HINT}"}

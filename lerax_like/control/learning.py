@@ -266,7 +266,7 @@ def optimise_open_loop(
         value, grad = jax.value_and_grad(loss)(z)
         with jax.numpy_dtype_promotion("standard"):
             updates, opt_state = optimiser.update(grad, opt_state, z)
-            z = optax.apply_updates(z, updates)
+            z = jnp.asarray(optax.apply_updates(z, updates))  # optax types its result as any pytree
         return z, opt_state, value
 
     z = 0.1 * jr.normal(key, (horizon, action_size), dtype=y0.dtype)

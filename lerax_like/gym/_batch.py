@@ -105,7 +105,7 @@ class Batch:
                     "(solver, static fields): assign it to `scene`, for every env, instead"
                 )
             rows.append(split.parameters)
-        if self._scenes is None:
+        if self._scenes is None or self._rows is None:  # both None while all envs share `scene`
             self._scenes = [self.scene] * self.num_envs
             with self._split.precision():
                 self._rows = jnp.tile(self._split.parameters, (self.num_envs, 1))
@@ -229,13 +229,13 @@ class Batch:
     def _current_observation(self) -> jax.Array:
         if self._y is None:
             raise RuntimeError("call reset before step")
-        if self._observation is None:  # the state or the scene was assigned
+        observation = self._observation
+        if observation is None:  # the state or the scene was assigned
             split = self._split
             with split.precision():
-                self._observation, self._key = split.compiled.batch_observe(
-                    self.parameters, self._y, self._steps, self._key
-                )
-        return self._observation
+                observation, self._key = split.compiled.batch_observe(self.parameters, self._y, self._steps, self._key)
+            self._observation = observation
+        return observation
 
     def _take(self, outputs) -> Outcome:
         self._y, self._steps, self._observation, rows, self._key = outputs

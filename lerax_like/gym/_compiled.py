@@ -142,7 +142,7 @@ class HostArray:
     enabled loads it back in its own dtype."""
 
     def __init__(self, value: jax.Array):
-        self.is_key = jax.dtypes.issubdtype(value.dtype, jax.dtypes.prng_key)
+        self.is_key = jnp.issubdtype(value.dtype, jax.dtypes.prng_key)
         self.implementation = str(jax.random.key_impl(value)) if self.is_key else None
         self.data = np.asarray(jax.random.key_data(value) if self.is_key else value)
 

@@ -1,5 +1,6 @@
 """`GymnasiumEnv`: a scene behind Gymnasium's `Env` interface, stepping as Gymnasium's env does."""
 
+import math
 from typing import Any, SupportsFloat
 
 import gymnasium
@@ -43,6 +44,9 @@ class GymnasiumEnv(gymnasium.Env):
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 50}
+    # What `to_gymnasium_space` builds (Gymnasium declares any `Space`).
+    action_space: gymnasium.spaces.Discrete | gymnasium.spaces.Box
+    observation_space: gymnasium.spaces.Discrete | gymnasium.spaces.Box
 
     def __init__(self, spec: GymSpec, render_mode: str | None = None, **scene_kwargs: Any):
         self._gym_spec = spec
@@ -50,8 +54,9 @@ class GymnasiumEnv(gymnasium.Env):
         self.scene = build_scene(spec.scene, scene_kwargs)
         with float64():
             self.action_space = to_gymnasium_space(self.scene.action_space)
-            self.observation_space = to_gymnasium_space(self.scene.observation_space)
-        self._observation_size = int(np.prod(self.observation_space.shape))
+            observation_space = self.scene.observation_space
+            self.observation_space = to_gymnasium_space(observation_space)
+        self._observation_size = math.prod(observation_space.shape)
         self.metadata = {**self.metadata, "render_fps": _render.render_fps(spec)}
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}")
@@ -59,7 +64,7 @@ class GymnasiumEnv(gymnasium.Env):
         self._renderer = None
         self._state: np.ndarray | None = None
         self._steps = 0
-        self._last_action: np.ndarray | None = None
+        self._last_action: np.ndarray | np.int64 | None = None
         self._warm_up()
 
     @property

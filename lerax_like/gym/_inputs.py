@@ -18,7 +18,7 @@ def _integer_rule(space: gymnasium.spaces.Discrete) -> str:
     return f"an integer from {space.start} to {space.start + space.n - 1}"
 
 
-def check_action(space: gymnasium.spaces.Space, action) -> np.ndarray:
+def check_action(space: gymnasium.spaces.Discrete | gymnasium.spaces.Box, action) -> np.ndarray | np.int64:
     """One env's `action` in `space`: an int64 scalar (Discrete) or a float64 array of the box's shape."""
     if isinstance(space, gymnasium.spaces.Discrete):
         # `space.contains(action)`, which Gymnasium's CartPole asserts, in half its time.
@@ -42,7 +42,9 @@ def check_action(space: gymnasium.spaces.Space, action) -> np.ndarray:
     return array.reshape(space.shape)
 
 
-def check_actions(space: gymnasium.spaces.Space, actions, num_envs: int, dtype: str) -> np.ndarray:
+def check_actions(
+    space: gymnasium.spaces.Discrete | gymnasium.spaces.Box, actions, num_envs: int, dtype: str
+) -> np.ndarray:
     """The actions of `num_envs` envs whose single action space is `space`: int64 of shape
     `(num_envs,)` (Discrete) or `dtype` of shape `(num_envs, *space.shape)`."""
     if isinstance(space, gymnasium.spaces.Discrete):

@@ -54,7 +54,7 @@ class GymnasiumRenderer:
         self._spec = spec
         self._env = _renderer_class(spec)(render_mode=render_mode)
 
-    def draw(self, scene: Any, state: np.ndarray, action: np.ndarray | None):
+    def draw(self, scene: Any, state: np.ndarray, action: np.ndarray | np.int64 | None):
         with float64():
             self._spec.render_sync(self._env, scene, np.array(state, dtype=np.float64), action)
         return self._env.render()
@@ -70,7 +70,7 @@ class SceneRenderer:
     def __init__(self, render_mode: str, fps: int):
         self._window = HumanWindow(fps) if render_mode == "human" else None
 
-    def draw(self, scene: Any, state: np.ndarray, action: np.ndarray | None):
+    def draw(self, scene: Any, state: np.ndarray, action: np.ndarray | np.int64 | None):
         frame = render_frame(scene, state, action)
         if self._window is None:
             return frame
@@ -91,11 +91,11 @@ def make_renderer(spec: GymSpec, render_mode: str) -> GymnasiumRenderer | SceneR
 def tile(frames: list[np.ndarray]) -> np.ndarray:
     """The frames (all of one shape, `(height, width, 3)`) in a grid of `ceil(sqrt(n))`
     columns, row by row, the empty cells black: how a vector env shows all its envs at once."""
-    frames = np.asarray(frames)
-    count, height, width, channels = frames.shape
+    stack = np.asarray(frames)
+    count, height, width, channels = stack.shape
     columns = int(np.ceil(np.sqrt(count)))
     rows = -(-count // columns)
-    padded = np.concatenate([frames, np.zeros((rows * columns - count, height, width, channels), frames.dtype)])
+    padded = np.concatenate([stack, np.zeros((rows * columns - count, height, width, channels), stack.dtype)])
     grid = padded.reshape(rows, columns, height, width, channels).transpose(0, 2, 1, 3, 4)
     return grid.reshape(rows * height, columns * width, channels)
 
@@ -113,7 +113,7 @@ class HumanWindow:
         import pygame
 
         size = (frame.shape[1], frame.shape[0])
-        if self._window is None:
+        if self._window is None or self._clock is None:  # both made together, here
             pygame.init()
             pygame.display.init()
             self._window = pygame.display.set_mode(size)

@@ -6,7 +6,7 @@ import numpy as np
 from ..spaces import AbstractSpace, Box, Discrete
 
 
-def to_gymnasium_space(space: AbstractSpace) -> gymnasium.spaces.Space:
+def to_gymnasium_space(space: AbstractSpace) -> gymnasium.spaces.Discrete | gymnasium.spaces.Box:
     if isinstance(space, Discrete):
         return gymnasium.spaces.Discrete(space.n)
     if isinstance(space, Box):

@@ -13,6 +13,7 @@ from ._batch import Batch, Outcome
 from ._compiled import build_scene, check_dtype, float64
 from ._spaces import to_gymnasium_space
 from ._specs import GymSpec
+from .._types import IntScalar
 
 
 class GymnasiumVectorEnv(VectorEnv):
@@ -54,6 +55,10 @@ class GymnasiumVectorEnv(VectorEnv):
     `jax.config.update("jax_cpu_enable_async_dispatch", False)`, called before JAX's first
     computation, it runs in the calling thread, which is faster for steps this small.
     """
+
+    # What `to_gymnasium_space` builds (Gymnasium declares any `Space`).
+    single_action_space: gymnasium.spaces.Discrete | gymnasium.spaces.Box
+    single_observation_space: gymnasium.spaces.Discrete | gymnasium.spaces.Box
 
     metadata = {
         "render_modes": ["human", "rgb_array", "rgb_array_list"],
@@ -105,7 +110,7 @@ class GymnasiumVectorEnv(VectorEnv):
         if isinstance(self.single_action_space, gymnasium.spaces.Discrete):
             zero = np.full(num_envs, self.single_action_space.start, dtype=np.int64)
         else:
-            zero = np.zeros(self.action_space.shape, dtype=dtype)
+            zero = np.zeros((num_envs, *self.single_action_space.shape), dtype=dtype)
         self.batch.warm_up(
             self.starts(np.random.default_rng(0), None, num_envs),
             zero,
@@ -119,7 +124,7 @@ class GymnasiumVectorEnv(VectorEnv):
         return self.batch.dtype
 
     @property
-    def max_episode_steps(self) -> int | None:
+    def max_episode_steps(self) -> IntScalar | None:
         """The time limit: the scene's `max_episode_steps`."""
         return self.batch.scene.max_episode_steps
 
@@ -199,7 +204,7 @@ class GymnasiumVectorEnv(VectorEnv):
         mode = self.autoreset_mode
         # np.count_nonzero: one C call (`ndarray.any` goes through a Python wrapper), the
         # number of restarts, which the draw needs.
-        ended = np.count_nonzero(self._ended)
+        ended = int(np.count_nonzero(self._ended))
         if ended and mode is AutoresetMode.DISABLED:
             raise RuntimeError(
                 f"envs {np.flatnonzero(self._ended).tolist()} ended at the last step: with autoreset_mode "

@@ -82,14 +82,14 @@ def _env_classes(spec: GymSpec) -> tuple[type, type]:
     else:
         doc = f"`gymnasium.make({spec.id!r})`: `lerax_like.{name}` as a Gymnasium env (see `GymnasiumEnv`)."
 
-    def __init__(self, render_mode: str | None = None, **scene_kwargs: Any):
+    def env_init(self, render_mode: str | None = None, **scene_kwargs: Any):
         GymnasiumEnv.__init__(self, spec, render_mode=render_mode, **scene_kwargs)
 
     env = type(
         f"{name}Env",
         (GymnasiumEnv,),
         {
-            "__init__": __init__,
+            "__init__": env_init,
             "__module__": __name__,
             "__doc__": doc,
             "metadata": {**GymnasiumEnv.metadata, "render_fps": render_fps(spec)},
@@ -97,7 +97,7 @@ def _env_classes(spec: GymSpec) -> tuple[type, type]:
         },
     )
 
-    def __init__(self, num_envs: int = 1, max_episode_steps: int | None = None, render_mode: str | None = None, **scene_kwargs: Any):
+    def vector_init(self, num_envs: int = 1, max_episode_steps: int | None = None, render_mode: str | None = None, **scene_kwargs: Any):
         GymnasiumVectorEnv.__init__(
             self, spec, num_envs=num_envs, max_episode_steps=max_episode_steps, render_mode=render_mode, **scene_kwargs
         )
@@ -109,7 +109,7 @@ def _env_classes(spec: GymSpec) -> tuple[type, type]:
         f"{name}VectorEnv",
         (GymnasiumVectorEnv,),
         {
-            "__init__": __init__,
+            "__init__": vector_init,
             "__module__": __name__,
             "__doc__": vector_doc,
             "metadata": {**GymnasiumVectorEnv.metadata, "render_fps": render_fps(spec)},
@@ -117,6 +117,7 @@ def _env_classes(spec: GymSpec) -> tuple[type, type]:
         },
     )
     for cls in (env, vector):
+        cls.__init__.__name__ = "__init__"
         cls.__init__.__qualname__ = f"{cls.__name__}.__init__"
     return env, vector
 
@@ -135,4 +136,5 @@ def entry_points(env_id: str) -> tuple[str, str]:
     return f"{__name__}:{env.__name__}", f"{__name__}:{vector.__name__}"
 
 
-__all__ = ["ENV_CLASSES", "entry_points", *_BY_NAME]
+# The env classes are generated, one pair per registered id: there is no static list of them to declare.
+__all__ = ["ENV_CLASSES", "entry_points", *_BY_NAME]  # pyright: ignore[reportUnsupportedDunderAll]

@@ -17,8 +17,13 @@ it is hashable, as trainers that mark it static need.
 gymnax is imported when `make` is first called (`pip install 'lerax_like[gymnax]'`).
 """
 
+from typing import TYPE_CHECKING
+
 from ._make import make as make, registered_envs as registered_envs
 from ._params import Params as Params
+
+if TYPE_CHECKING:  # made on first use (`__getattr__`), once gymnax is imported
+    from ._environment import Environment as Environment
 
 
 def __getattr__(name: str):

@@ -9,7 +9,7 @@ import jax.numpy as jnp
 from gymnax.environments import environment as gymnax_environment, spaces as gymnax_spaces
 
 from ..env import AbstractEnv, EnvState
-from ..spaces import AbstractSpace, Discrete
+from ..spaces import AbstractSpace, Box, Discrete
 from ._params import Params
 
 
@@ -100,7 +100,13 @@ def _to_gymnax(space: AbstractSpace):
         # int32. The integer type of the current mode is what `astype` gives there anyway.
         discrete.dtype = jax.dtypes.canonicalize_dtype(jnp.int_)
         return discrete
-    return gymnax_spaces.Box(space.low, space.high, space.shape, space.low.dtype)
+    if isinstance(space, Box):
+        # NumPy bounds where concrete (`lerax_like.spaces`), which gymnax takes although it
+        # annotates `low` and `high` as a JAX array or a float.
+        return gymnax_spaces.Box(
+            space.low, space.high, space.shape, space.low.dtype  # pyright: ignore[reportArgumentType]
+        )
+    raise TypeError(f"no gymnax counterpart for the space {space!r}")
 
 
 __all__ = ["Environment"]

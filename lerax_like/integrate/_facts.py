@@ -71,11 +71,12 @@ def solver_facts(solver: diffrax.AbstractSolver) -> SolverFacts:
         stages = next((n for cls, n in _STAGES_WITHOUT_TABLEAU.items() if isinstance(solver, cls)), None)
         error_estimate = _steps_give_an_error_estimate(solver)
         fsal = False
-    counted = stages is not None and not implicit
+    per_step = None if stages is None or implicit else stages - int(fsal)
+    counted = per_step is not None
     return SolverFacts(
         order=None if order is None else int(order),
         stages=stages,
-        evaluations_per_step=stages - int(fsal) if counted else None,
+        evaluations_per_step=per_step,
         evaluations_per_rejected_step=stages if counted else None,
         evaluations_per_solve=int(fsal) if counted else None,
         implicit=implicit,

@@ -204,7 +204,7 @@ class Integrator(eqx.Module):
         steps: IntScalar = solution.stats["num_accepted_steps"]
         rejected: IntScalar = solution.stats["num_steps"] - steps
         solved = solution.result == diffrax.RESULTS.successful
-        return self._finish(solution.ys[-1], solved, steps, rejected, projection)
+        return self._finish(_saved_states(solution)[-1], solved, steps, rejected, projection)
 
     def dense_states(
         self,
@@ -237,7 +237,7 @@ class Integrator(eqx.Module):
             solver = HermiteDenseOutput(solver)
         saveat = diffrax.SaveAt(ts=jnp.asarray(ts, dtype=y0.dtype))
         solution = self._solve(term, y0, u, dt, dt0, saveat=saveat, solver=solver)
-        return solution.ys, solution.result == diffrax.RESULTS.successful
+        return _saved_states(solution), solution.result == diffrax.RESULTS.successful
 
     def failure(self, vector_field, y0: State, u: Input, dt: ScalarLike, **options) -> str:
         """Why `integrate` with the same arguments (`options`: its keywords) fails, in words;
@@ -306,6 +306,14 @@ class Integrator(eqx.Module):
         ok: BoolScalar = solved & finite & jnp.all(jnp.isfinite(y1))
         info = {"solver_ok": ok, "solver_steps": steps, "solver_rejected_steps": rejected}
         return y1, info
+
+
+def _saved_states(solution: diffrax.Solution) -> Array:
+    """The states a solve saved: `SaveAt(t1=True)` (diffeqsolve's default) or `SaveAt(ts=...)`
+    here, never nothing, where diffrax types `ys` as possibly None."""
+    if solution.ys is None:
+        raise ValueError("the solve saved no states")
+    return solution.ys
 
 
 def _explicit_runge_kutta_step(tableau: diffrax.ButcherTableau, term, y0: State, u: Input, dt) -> State:

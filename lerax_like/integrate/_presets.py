@@ -2,11 +2,12 @@
 
 import dataclasses
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from typing import Any
+from typing import Any, Protocol
 
 import diffrax
 import equinox as eqx
 import numpy as np
+import optimistix
 
 from ._facts import solver_facts
 from ._rk4 import RK4
@@ -94,7 +95,14 @@ def preset(
     )
 
 
-def _implicit(name: str, cls: type[diffrax.AbstractImplicitSolver], description: str, rtol=1e-6, atol=1e-9):
+class _ImplicitSolverClass(Protocol):
+    """An implicit solver's class (`diffrax.Kvaerno5`), built with a root finder (the abstract
+    base's signature, which a type checker would read from `type[AbstractImplicitSolver]`, has none)."""
+
+    def __call__(self, *, root_finder: optimistix.AbstractRootFinder) -> diffrax.AbstractImplicitSolver: ...
+
+
+def _implicit(name: str, cls: _ImplicitSolverClass, description: str, rtol=1e-6, atol=1e-9):
     return preset(
         name, lambda: cls(root_finder=adaptive_root_finder()), make_controller=adaptive(rtol, atol),
         make_fixed_step_solver=lambda: cls(root_finder=fixed_step_root_finder()), description=description,

@@ -69,7 +69,7 @@ class FloorAndWall(AbstractImpulseContact):
     wall_position: Scalar = parameter(1.0, FINITE)
     min_rebound_speed: Scalar = parameter(1e-2, POSITIVE)
 
-    def gaps(self, dynamics, y: State) -> Float[Array, " 2"]:
+    def gaps(self, dynamics: BallDynamics, y: State) -> Float[Array, " 2"]:
         x, z = dynamics.coordinates(y)[0]
         return jnp.stack([z, self.wall_position - x])
 

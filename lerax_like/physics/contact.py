@@ -27,7 +27,7 @@ physics of a trajectory that barely touches, not a numerical failure.
 """
 
 import abc
-from typing import TYPE_CHECKING, ClassVar, final
+from typing import TYPE_CHECKING, ClassVar, Protocol, final, runtime_checkable
 
 import equinox as eqx
 import jax
@@ -35,14 +35,24 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._fields import POSITIVE, AbstractParametrised, Range, option, parameter
-from .._types import Array, Bool, Float, Scalar, State
-from ._base import AbstractDynamics
+from .._types import Array, Bool, Float, Scalar, ScalarLike, State
+from ._base import AbstractChainDynamics, AbstractDynamics
 
 
 RESTITUTION = Range(
     "finite and in [0, 1] (allowed range [0, 1])",
     lambda a: bool(np.all(np.isfinite(a)) and np.all(a >= 0) and np.all(a <= 1)),
 )
+
+
+@runtime_checkable
+class MechanicalDynamics(Protocol):
+    """What an impulse contact reads off its dynamics: generalised coordinates and energy
+    (`AbstractImpulseContact.check` refuses dynamics without them)."""
+
+    def coordinates(self, y: State) -> tuple[Float[Array, " q"], Float[Array, " q"]]: ...
+
+    def energy(self, y: State) -> Scalar: ...
 
 
 class AbstractContact(AbstractParametrised):
@@ -86,8 +96,10 @@ class AbstractImpulseContact(AbstractContact):
     and `energy(y)`, kinetic plus potential, the kinetic part `q_dot^T M(q) q_dot / 2`.
     """
 
-    restitution: eqx.AbstractVar[Scalar]
-    min_rebound_speed: eqx.AbstractVar[Scalar]
+    # equinox types `AbstractVar[T]` as `Annotated[T, ...]` for a type checker, which then takes it for
+    # a field without a default after `max_events`; at run time it declares no field at all.
+    restitution: eqx.AbstractVar[Scalar]  # pyright: ignore[reportGeneralTypeIssues]
+    min_rebound_speed: eqx.AbstractVar[Scalar]  # pyright: ignore[reportGeneralTypeIssues]
 
     def check(self, dynamics: AbstractDynamics) -> None:
         missing = [name for name in ("coordinates", "energy") if not hasattr(dynamics, name)]
@@ -120,7 +132,7 @@ class AbstractImpulseContact(AbstractContact):
         _, q_dot = dynamics.coordinates(y)
         return self.jacobian(dynamics, y) @ q_dot
 
-    def set_normal_speed(self, dynamics, y: State, surface: int, speed: Scalar) -> State:
+    def set_normal_speed(self, dynamics, y: State, surface: int, speed: ScalarLike) -> State:
         """`y` with `J_i q_dot` set to `speed` by an impulse along `J_i^T`: `M dq_dot = J_i^T lambda`."""
         _, q_dot = dynamics.coordinates(y)
         row = self.jacobian(dynamics, y)[surface]
@@ -194,7 +206,7 @@ class Walls(AbstractImpulseContact):
     track_limit: Scalar = parameter(2.4, POSITIVE)
     min_rebound_speed: Scalar = parameter(1e-3, POSITIVE)
 
-    def gaps(self, dynamics, y: State) -> Float[Array, " 2"]:
+    def gaps(self, dynamics: AbstractChainDynamics, y: State) -> Float[Array, " 2"]:
         x = dynamics.coordinates(y)[0][0]
         return jnp.stack([x + self.track_limit, self.track_limit - x])
 
@@ -208,6 +220,7 @@ __all__ = [
     "RESTITUTION",
     "AbstractContact",
     "AbstractImpulseContact",
+    "MechanicalDynamics",
     "Walls",
     "mass_matrix",
     "with_coordinates",

@@ -6,7 +6,10 @@ whose step is one compiled call for all envs instead of `DummyVecEnv`'s loop ove
 envs. Importing this module does not import SB3; calling into it does.
 """
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # imported on first use (`__getattr__`), so that importing this module needs no SB3
+    from ._vec_env import CompiledVecEnv as CompiledVecEnv, EnvView as EnvView, MonitoredVecEnv as MonitoredVecEnv
 
 
 def _sb3():

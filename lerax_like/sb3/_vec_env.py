@@ -150,6 +150,9 @@ class CompiledVecEnv(VecEnv):
     `"human"` (every reset and step shows the envs, tiled in one pygame window).
     """
 
+    # The vector env's single action space, as `to_gymnasium_space` builds it (SB3 declares any `Space`).
+    action_space: gymnasium.spaces.Discrete | gymnasium.spaces.Box
+
     def __init__(
         self,
         env_id: str,
@@ -234,9 +237,10 @@ class CompiledVecEnv(VecEnv):
         self._vector.close()
 
     def get_images(self) -> Sequence[np.ndarray | None]:
-        if self.render_mode != "rgb_array":
+        # In rgb_array mode the vector env returns one frame per env, never None.
+        if self.render_mode != "rgb_array" or (frames := self._vector.render()) is None:
             return [None] * self.num_envs
-        return self._vector.render()
+        return frames
 
     def render(self, mode: str | None = None):
         if self.render_mode == "human" and mode in (None, "human"):
@@ -318,7 +322,12 @@ class MonitoredVecEnv(VecMonitor):
 
     def env_is_wrapped(self, wrapper_class, indices=None) -> list[bool]:
         if issubclass(Monitor, wrapper_class):
-            count = self.num_envs if indices is None else len([indices] if np.ndim(indices) == 0 else indices)
+            if indices is None:
+                count = self.num_envs
+            elif isinstance(indices, (int, np.integer)) or (isinstance(indices, np.ndarray) and indices.ndim == 0):
+                count = 1
+            else:
+                count = len(list(indices))
             return [True] * count
         return self.venv.env_is_wrapped(wrapper_class, indices)
 
