@@ -102,14 +102,17 @@ class MountainCar(AbstractMountainCar):
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        import diffrax
+        from typing import Unpack
+
+        from lerax_like._keywords import IntegratorKeywords, MountainCarDynamicsKeywords
         from lerax_like._types import ScalarLike
+
+        class _Keywords(MountainCarDynamicsKeywords, IntegratorKeywords, total=False): ...
 
         def __init__(
             self,
             *,
             dynamics: MountainCarDynamics = ...,
-            integrator: Integrator = ...,
             min_position: ScalarLike = -1.2,
             max_position: ScalarLike = 0.6,
             max_speed: ScalarLike = 0.07,
@@ -118,12 +121,7 @@ class MountainCar(AbstractMountainCar):
             force: ScalarLike = 0.001,
             goal_position: ScalarLike = 0.5,
             max_episode_steps: int | None = 200,
-            gravity: ScalarLike = 0.0025,
-            solver: str | diffrax.AbstractSolver | Integrator = 'semi_implicit_euler',
-            stepsize_controller: diffrax.AbstractStepSizeController | None = None,
-            max_steps: int | None = None,
-            adjoint: diffrax.AbstractAdjoint | None = None,
-            substeps: int = 1,
+            **keywords: Unpack[_Keywords],
         ) -> None: ...
     # (end of the constructor written by python -m lerax_like._constructor_source)
 
@@ -180,14 +178,17 @@ class MountainCarContinuous(AbstractMountainCar, AbstractUnitActionEnv):
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        import diffrax
+        from typing import Unpack
+
+        from lerax_like._keywords import IntegratorKeywords, MountainCarDynamicsKeywords
         from lerax_like._types import ScalarLike
+
+        class _Keywords(MountainCarDynamicsKeywords, IntegratorKeywords, total=False): ...
 
         def __init__(
             self,
             *,
             dynamics: MountainCarDynamics = ...,
-            integrator: Integrator = ...,
             min_position: ScalarLike = -1.2,
             max_position: ScalarLike = 0.6,
             max_speed: ScalarLike = 0.07,
@@ -196,12 +197,7 @@ class MountainCarContinuous(AbstractMountainCar, AbstractUnitActionEnv):
             power: ScalarLike = 0.0015,
             goal_position: ScalarLike = 0.45,
             max_episode_steps: int | None = 999,
-            gravity: ScalarLike = 0.0025,
-            solver: str | diffrax.AbstractSolver | Integrator = 'semi_implicit_euler',
-            stepsize_controller: diffrax.AbstractStepSizeController | None = None,
-            max_steps: int | None = None,
-            adjoint: diffrax.AbstractAdjoint | None = None,
-            substeps: int = 1,
+            **keywords: Unpack[_Keywords],
         ) -> None: ...
     # (end of the constructor written by python -m lerax_like._constructor_source)
 
