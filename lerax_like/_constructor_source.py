@@ -9,11 +9,12 @@ that `lerax_like._signatures` reads off the fields:
 
 The keywords that constructors share are declared once, as TypedDicts in
 `lerax_like._keywords` (written by the same command): the integrator's, each dynamics' and
-each add-on's. A dynamics takes its own as `**keywords: Unpack[...]` (PEP 692); a scene's
-block lists only its own fields and aliases, with their defaults, and takes its dynamics',
-the integrator's and its add-ons' keywords as one TypedDict composed of those. The defaults
-of a keyword given by a TypedDict are not in the block (a TypedDict has none): the runtime
-signature (`inspect.signature`, `help()`) shows them.
+each add-on's, and the fields an abstract scene (`AbstractCartPole`) declares for the final
+scenes built on it. A dynamics takes its own as `**keywords: Unpack[...]` (PEP 692); a scene's
+block lists only its own fields and aliases, with their defaults, and takes the rest (its
+bases' fields, its dynamics', the integrator's and its add-ons' keywords) as one TypedDict
+composed of those. The defaults of a keyword given by a TypedDict are not in the block (a
+TypedDict has none): the runtime signature (`inspect.signature`, `help()`) shows them.
 
 `tests/test_signatures.py` fails on a block or a `_keywords` module that is not current, so
 a field added to a dynamics (or a scene, or an add-on) without rewriting them is caught,
@@ -55,6 +56,7 @@ class Group:
     name: str
     doc: str
     keywords: tuple[tuple[str, str], ...]  # (name, annotation)
+    owner: type | None = None  # whose module the annotations' other names come from
 
 
 def _default_text(default: Any) -> str:
@@ -70,12 +72,17 @@ def _import_order(name: str) -> tuple[int, str]:
     return (0 if name.isupper() else 1 if name[0].isupper() else 2, name)
 
 
-def _import_lines(names: set[str], available: dict[str, Any]) -> list[str]:
-    """The imports of `names` that `available` (a module's namespace) lacks, one line per module."""
+def _import_lines(names: set[str], available: dict[str, Any], owners: tuple[type, ...] = ()) -> list[str]:
+    """The imports of `names` that `available` (a module's namespace) lacks, one line per module:
+    from `_IMPORTS`, or where the name comes from in the modules of `owners` (a dynamics class)."""
     modules: dict[str | None, set[str]] = {}
     for name, module in _IMPORTS.items():
         if name in names and name not in available:
             modules.setdefault(module, set()).add(name)
+    for owner in owners:
+        for name, value in vars(sys.modules[owner.__module__]).items():
+            if name in names and name not in available and name not in _IMPORTS and isinstance(value, type):
+                modules.setdefault(value.__module__, set()).add(name)
     lines = ["import diffrax"] if None in modules else []
     for module in (m for m in modules if m is not None):
         lines.append(f"from {module} import {', '.join(sorted(modules[module], key=_import_order))}")
@@ -124,9 +131,21 @@ def _takes_own_group(cls: type) -> bool:
     )
 
 
+def _scene_bases() -> list[type]:
+    """The abstract scenes of the package that declare fields for the final scenes built on them."""
+    bases = {
+        base
+        for scene in _package_scenes()
+        for base in scene.__mro__[1:]
+        if base.__module__.startswith("lerax_like.scenes") and dataclasses.is_dataclass(base) and dataclasses.fields(base)
+    }
+    return sorted(bases, key=lambda cls: cls.__name__)
+
+
 def groups() -> list[Group]:
-    """The TypedDicts of `lerax_like._keywords`: the integrator's, each add-on's (as a scene takes
-    them: None, absent) and each dynamics' keywords."""
+    """The TypedDicts of `lerax_like._keywords`: the integrator's, the fields an abstract scene
+    declares for its final scenes, each add-on's (as a scene takes them: None, absent) and each
+    dynamics' keywords."""
     from ._construct import integrator_keywords
 
     found = [
@@ -136,6 +155,16 @@ def groups() -> list[Group]:
             (("integrator", "Integrator"), *((keyword.name, keyword.annotation) for keyword in integrator_keywords())),
         )
     ]
+    integrator = {key for key, _ in found[0].keywords}
+    for base in _scene_bases():
+        found.append(
+            Group(
+                f"{base.__name__}Keywords",
+                f"The fields `{base.__name__}` declares, once, for the final scenes built on it.",
+                tuple((k.name, k.annotation) for k in field_keywords(base) if k.name not in integrator),
+                base,
+            )
+        )
     for addon in _addons():
         found.append(
             Group(
@@ -156,11 +185,12 @@ def groups() -> list[Group]:
 
 
 def _groups_of(cls: type, parameters: dict[str, inspect.Parameter]) -> list[Group]:
-    """The groups whose keywords `cls`'s signature takes, each with the same annotation: its
-    dynamics', the integrator's and its add-ons' (a group that does not fit is listed keyword by keyword)."""
+    """The groups whose keywords `cls`'s signature takes, each with the same annotation: its abstract
+    bases' fields, its dynamics', the integrator's and its add-ons' (a group that does not fit is
+    listed keyword by keyword)."""
     by_name = {group.name: group for group in groups()}
     fields = {field.name: field for field in dataclasses.fields(cls)} if dataclasses.is_dataclass(cls) else {}
-    wanted = []
+    wanted = [f"{base.__name__}Keywords" for base in cls.__mro__[1:]]
     factory = fields["dynamics"].metadata.get("factory") if "dynamics" in fields else None
     if factory is not None:
         wanted.append(f"{getattr(factory, 'func', factory).__name__}Keywords")
@@ -214,10 +244,16 @@ def keywords_module_source() -> str:
         "",
         "Written by `python -m lerax_like._constructor_source --write` from the signatures read off",
         "the fields (`lerax_like._signatures`); a dynamics takes its own as `**keywords`, and a scene",
-        "its dynamics', the integrator's and its add-ons' composed. A TypedDict holds no defaults:",
-        '`inspect.signature` shows them."""',
+        "those of its abstract bases' fields, its dynamics, the integrator and its add-ons, composed.",
+        'A TypedDict holds no defaults: `inspect.signature` shows them."""',
         "",
-        *_sectioned(_import_lines(_names(a for group in found for _, a in group.keywords) | {"TypedDict"}, {})),
+        *_sectioned(
+            _import_lines(
+                _names(a for group in found for _, a in group.keywords) | {"TypedDict"},
+                {},
+                tuple(group.owner for group in found if group.owner is not None),
+            )
+        ),
     ]
     for group in found:
         lines += ["", "", f"class {group.name}(TypedDict, total=False):", f'    """{group.doc}"""', ""]

@@ -2,8 +2,8 @@
 
 Written by `python -m lerax_like._constructor_source --write` from the signatures read off
 the fields (`lerax_like._signatures`); a dynamics takes its own as `**keywords`, and a scene
-its dynamics', the integrator's and its add-ons' composed. A TypedDict holds no defaults:
-`inspect.signature` shows them."""
+those of its abstract bases' fields, its dynamics, the integrator and its add-ons, composed.
+A TypedDict holds no defaults: `inspect.signature` shows them."""
 
 from collections.abc import Sequence
 from typing import Literal, TypedDict
@@ -12,6 +12,8 @@ import diffrax
 
 from lerax_like._types import ArrayLike, ScalarLike
 from lerax_like.integrate import Integrator
+from lerax_like.physics.cartpole import CartPoleDynamics
+from lerax_like.physics.mountain_car import MountainCarDynamics
 
 
 class IntegratorKeywords(TypedDict, total=False):
@@ -23,6 +25,31 @@ class IntegratorKeywords(TypedDict, total=False):
     max_steps: int | None
     adjoint: diffrax.AbstractAdjoint | None
     substeps: int
+
+
+class AbstractCartPoleKeywords(TypedDict, total=False):
+    """The fields `AbstractCartPole` declares, once, for the final scenes built on it."""
+
+    dynamics: CartPoleDynamics
+    forces: tuple
+    contacts: tuple
+    friction: tuple
+    force_mag: ScalarLike
+    theta_threshold_radians: ScalarLike
+    x_threshold: ScalarLike
+    dt: ScalarLike
+    max_episode_steps: int | None
+
+
+class AbstractMountainCarKeywords(TypedDict, total=False):
+    """The fields `AbstractMountainCar` declares, once, for the final scenes built on it."""
+
+    dynamics: MountainCarDynamics
+    min_position: ScalarLike
+    max_position: ScalarLike
+    max_speed: ScalarLike
+    goal_velocity: ScalarLike
+    dt: ScalarLike
 
 
 class CartFrictionKeywords(TypedDict, total=False):
@@ -198,9 +225,10 @@ class VanDerPolDynamicsKeywords(TypedDict, total=False):
 
 
 __all__ = [
-    "IntegratorKeywords", "CartFrictionKeywords", "EndStopsKeywords", "FloorAndWallKeywords",
-    "HeelStrikeKeywords", "JointDampingKeywords", "PlaneFrictionKeywords", "SpokeContactKeywords",
-    "WallsKeywords", "AcrobotDynamicsKeywords", "BallDynamicsKeywords", "CartChainDynamicsKeywords",
+    "IntegratorKeywords", "AbstractCartPoleKeywords", "AbstractMountainCarKeywords",
+    "CartFrictionKeywords", "EndStopsKeywords", "FloorAndWallKeywords", "HeelStrikeKeywords",
+    "JointDampingKeywords", "PlaneFrictionKeywords", "SpokeContactKeywords", "WallsKeywords",
+    "AcrobotDynamicsKeywords", "BallDynamicsKeywords", "CartChainDynamicsKeywords",
     "CartPoleDynamicsKeywords", "CompassGaitDynamicsKeywords", "MountainCarDynamicsKeywords",
     "NLinkPendulumDynamicsKeywords", "PendulumDynamicsKeywords", "PlanarQuadrotorDynamicsKeywords",
     "RimlessWheelDynamicsKeywords", "SimplestWalkerDynamicsKeywords", "SlidingBlockDynamicsKeywords",

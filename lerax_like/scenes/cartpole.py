@@ -119,23 +119,13 @@ class CartPole(AbstractCartPole):
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
         from typing import Unpack
 
-        from lerax_like._keywords import CartFrictionKeywords, CartPoleDynamicsKeywords, EndStopsKeywords, IntegratorKeywords, JointDampingKeywords, WallsKeywords
-        from lerax_like._types import ScalarLike
+        from lerax_like._keywords import AbstractCartPoleKeywords, CartFrictionKeywords, CartPoleDynamicsKeywords, EndStopsKeywords, IntegratorKeywords, JointDampingKeywords, WallsKeywords
 
-        class _Keywords(CartPoleDynamicsKeywords, IntegratorKeywords, JointDampingKeywords, EndStopsKeywords, WallsKeywords, CartFrictionKeywords, total=False): ...
+        class _Keywords(AbstractCartPoleKeywords, CartPoleDynamicsKeywords, IntegratorKeywords, JointDampingKeywords, EndStopsKeywords, WallsKeywords, CartFrictionKeywords, total=False): ...
 
         def __init__(
             self,
             *,
-            dynamics: CartPoleDynamics = ...,
-            forces: tuple = (),
-            contacts: tuple = (),
-            friction: tuple = (),
-            force_mag: ScalarLike = 10.0,
-            theta_threshold_radians: ScalarLike = 0.20943951023931953,
-            x_threshold: ScalarLike = 2.4,
-            dt: ScalarLike = 0.02,
-            max_episode_steps: int | None = 500,
             sutton_barto_reward: bool = False,
             **keywords: Unpack[_Keywords],
         ) -> None: ...
@@ -196,23 +186,14 @@ class CartPoleContinuous(AbstractCartPole, AbstractUnitActionEnv):
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
         from typing import Unpack
 
-        from lerax_like._keywords import CartFrictionKeywords, CartPoleDynamicsKeywords, EndStopsKeywords, IntegratorKeywords, JointDampingKeywords, WallsKeywords
+        from lerax_like._keywords import AbstractCartPoleKeywords, CartFrictionKeywords, CartPoleDynamicsKeywords, EndStopsKeywords, IntegratorKeywords, JointDampingKeywords, WallsKeywords
         from lerax_like._types import ScalarLike
 
-        class _Keywords(CartPoleDynamicsKeywords, IntegratorKeywords, JointDampingKeywords, EndStopsKeywords, WallsKeywords, CartFrictionKeywords, total=False): ...
+        class _Keywords(AbstractCartPoleKeywords, CartPoleDynamicsKeywords, IntegratorKeywords, JointDampingKeywords, EndStopsKeywords, WallsKeywords, CartFrictionKeywords, total=False): ...
 
         def __init__(
             self,
             *,
-            dynamics: CartPoleDynamics = ...,
-            forces: tuple = (),
-            contacts: tuple = (),
-            friction: tuple = (),
-            force_mag: ScalarLike = 10.0,
-            theta_threshold_radians: ScalarLike = 0.20943951023931953,
-            x_threshold: ScalarLike = 2.4,
-            dt: ScalarLike = 0.02,
-            max_episode_steps: int | None = 500,
             action_cost: ScalarLike = 0.001,
             reward_kind: Literal['gymnasium', 'smooth'] = 'gymnasium',
             reward: Literal['gymnasium', 'smooth'] | None = None,

@@ -104,20 +104,14 @@ class MountainCar(AbstractMountainCar):
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
         from typing import Unpack
 
-        from lerax_like._keywords import IntegratorKeywords, MountainCarDynamicsKeywords
+        from lerax_like._keywords import AbstractMountainCarKeywords, IntegratorKeywords, MountainCarDynamicsKeywords
         from lerax_like._types import ScalarLike
 
-        class _Keywords(MountainCarDynamicsKeywords, IntegratorKeywords, total=False): ...
+        class _Keywords(AbstractMountainCarKeywords, MountainCarDynamicsKeywords, IntegratorKeywords, total=False): ...
 
         def __init__(
             self,
             *,
-            dynamics: MountainCarDynamics = ...,
-            min_position: ScalarLike = -1.2,
-            max_position: ScalarLike = 0.6,
-            max_speed: ScalarLike = 0.07,
-            goal_velocity: ScalarLike = 0.0,
-            dt: ScalarLike = 1.0,
             force: ScalarLike = 0.001,
             goal_position: ScalarLike = 0.5,
             max_episode_steps: int | None = 200,
@@ -180,20 +174,14 @@ class MountainCarContinuous(AbstractMountainCar, AbstractUnitActionEnv):
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
         from typing import Unpack
 
-        from lerax_like._keywords import IntegratorKeywords, MountainCarDynamicsKeywords
+        from lerax_like._keywords import AbstractMountainCarKeywords, IntegratorKeywords, MountainCarDynamicsKeywords
         from lerax_like._types import ScalarLike
 
-        class _Keywords(MountainCarDynamicsKeywords, IntegratorKeywords, total=False): ...
+        class _Keywords(AbstractMountainCarKeywords, MountainCarDynamicsKeywords, IntegratorKeywords, total=False): ...
 
         def __init__(
             self,
             *,
-            dynamics: MountainCarDynamics = ...,
-            min_position: ScalarLike = -1.2,
-            max_position: ScalarLike = 0.6,
-            max_speed: ScalarLike = 0.07,
-            goal_velocity: ScalarLike = 0.0,
-            dt: ScalarLike = 1.0,
             power: ScalarLike = 0.0015,
             goal_position: ScalarLike = 0.45,
             max_episode_steps: int | None = 999,
