@@ -36,7 +36,7 @@ import numpy as np
 
 from .._fields import POSITIVE, AbstractParametrised, Range, option, parameter
 from .._types import Array, Bool, Float, Scalar, State
-from ._base import AbstractDynamics
+from ._base import AbstractDynamics, require_attributes
 
 
 RESTITUTION = Range(
@@ -90,12 +90,7 @@ class AbstractImpulseContact(AbstractContact):
     min_rebound_speed: eqx.AbstractVar[Scalar]
 
     def check(self, dynamics: AbstractDynamics) -> None:
-        missing = [name for name in ("coordinates", "energy") if not hasattr(dynamics, name)]
-        if missing:
-            raise ValueError(
-                f"{type(self).__name__} needs dynamics with {' and '.join(missing)} (generalised "
-                f"coordinates and energy, for the mass matrix), and {type(dynamics).__name__} has none"
-            )
+        require_attributes(self, dynamics, ("coordinates", "energy"), "generalised coordinates and energy, for the mass matrix")
 
     def impact(self, dynamics: AbstractDynamics, y: State, surface: int) -> State:
         """Reverse the normal velocity on `surface` times `restitution`, impulse-consistently.

@@ -1,4 +1,4 @@
-from typing import TYPE_CHECKING, ClassVar, final
+from typing import TYPE_CHECKING, final
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -81,11 +81,6 @@ class CompassGait(AbstractWalkerEnv):
             **keywords: Unpack[_Keywords],
         ) -> None: ...
     # (end of the constructor written by python -m lerax_like._constructor_source)
-
-    stochastic: ClassVar[bool] = False  # nothing random but the start
-    action_size: ClassVar[int] = 1
-    action_scale: ClassVar[str] = "max_torque"
-    addons: ClassVar[tuple[type, ...]] = (HeelStrike,)
 
     dynamics: CompassGaitDynamics = dynamics(CompassGaitDynamics)
     integrator: Integrator = integrator("tsit5")
