@@ -54,9 +54,10 @@ class Group:
     """Keywords that several constructors take, declared once as a TypedDict of `lerax_like._keywords`."""
 
     name: str
-    doc: str
-    keywords: tuple[tuple[str, str], ...]  # (name, annotation)
+    doc: str | None  # None where the module's docstring says it (`<Class>Keywords`)
+    keywords: tuple[tuple[str, str], ...]  # (name, annotation), its bases' first
     owner: type | None = None  # whose module the annotations' other names come from
+    bases: tuple["Group", ...] = ()
 
 
 def _default_text(default: Any) -> str:
@@ -165,19 +166,20 @@ def groups() -> list[Group]:
                 base,
             )
         )
+    # The event budget that every located add-on (contacts, friction) takes, declared once.
+    budget = Group("EventBudgetKeywords", "The located events (impacts, stick-slip switches) allowed per env step.", (("max_events", "int | None"),))
+    if any("max_events" in {f.name for f in dataclasses.fields(addon)} for addon in _addons()):
+        found.append(budget)
     for addon in _addons():
-        found.append(
-            Group(
-                f"{addon.__name__}Keywords",
-                f"The keywords of `{addon.__name__}` as a scene takes them flat (absent unless given).",
-                tuple((keyword.name, f"{keyword.annotation} | None") for keyword in field_keywords(addon)),
-            )
-        )
+        keys = tuple((keyword.name, f"{keyword.annotation} | None") for keyword in field_keywords(addon))
+        bases = (budget,) if set(budget.keywords) <= set(keys) else ()
+        keys = (*(key for base in bases for key in base.keywords), *(key for key in keys if key not in budget.keywords or not bases))
+        found.append(Group(f"{addon.__name__}Keywords", None, keys, bases=bases))
     for cls in sorted((cls for cls in final_classes() if _takes_own_group(cls)), key=lambda cls: cls.__name__):
         found.append(
             Group(
                 f"{cls.__name__}Keywords",
-                f"The keywords of `{cls.__name__}`, which a scene built on it takes flat too.",
+                None,
                 tuple((keyword.name, keyword.annotation) for keyword in field_keywords(cls)),
             )
         )
@@ -245,7 +247,9 @@ def keywords_module_source() -> str:
         "Written by `python -m lerax_like._constructor_source --write` from the signatures read off",
         "the fields (`lerax_like._signatures`); a dynamics takes its own as `**keywords`, and a scene",
         "those of its abstract bases' fields, its dynamics, the integrator and its add-ons, composed.",
-        'A TypedDict holds no defaults: `inspect.signature` shows them."""',
+        "`<Class>Keywords` are the keywords of that dynamics, or of that add-on as a scene takes them",
+        "flat (None: absent, unless given). A TypedDict holds no defaults: `inspect.signature` shows them.",
+        '"""',
         "",
         *_sectioned(
             _import_lines(
@@ -256,8 +260,12 @@ def keywords_module_source() -> str:
         ),
     ]
     for group in found:
-        lines += ["", "", f"class {group.name}(TypedDict, total=False):", f'    """{group.doc}"""', ""]
-        lines += [f"    {key}: {annotation}" for key, annotation in group.keywords]
+        inherited = {key for base in group.bases for key in base.keywords}
+        bases = ", ".join([*(base.name for base in group.bases)] or ["TypedDict"])
+        own = [f"    {key}: {annotation}" for key, annotation in group.keywords if (key, annotation) not in inherited]
+        lines += ["", "", f"class {group.name}({bases}, total=False):" + ("" if own or group.doc else " ...")]
+        lines += [f'    """{group.doc}"""', ""] if group.doc else []
+        lines += own
     names = textwrap.wrap(", ".join(f'"{group.name}"' for group in found), 100)
     lines += ["", "", "__all__ = [", *(f"    {line}" for line in names), "]"]
     return "\n".join(lines) + "\n"

@@ -3,7 +3,9 @@
 Written by `python -m lerax_like._constructor_source --write` from the signatures read off
 the fields (`lerax_like._signatures`); a dynamics takes its own as `**keywords`, and a scene
 those of its abstract bases' fields, its dynamics, the integrator and its add-ons, composed.
-A TypedDict holds no defaults: `inspect.signature` shows them."""
+`<Class>Keywords` are the keywords of that dynamics, or of that add-on as a scene takes them
+flat (None: absent, unless given). A TypedDict holds no defaults: `inspect.signature` shows them.
+"""
 
 from collections.abc import Sequence
 from typing import Literal, TypedDict
@@ -52,70 +54,52 @@ class AbstractMountainCarKeywords(TypedDict, total=False):
     dt: ScalarLike
 
 
-class CartFrictionKeywords(TypedDict, total=False):
-    """The keywords of `CartFriction` as a scene takes them flat (absent unless given)."""
+class EventBudgetKeywords(TypedDict, total=False):
+    """The located events (impacts, stick-slip switches) allowed per env step."""
 
     max_events: int | None
+
+
+class CartFrictionKeywords(EventBudgetKeywords, total=False):
     cart_static_friction: ScalarLike | None
     cart_kinetic_friction: ScalarLike | None
 
 
 class EndStopsKeywords(TypedDict, total=False):
-    """The keywords of `EndStops` as a scene takes them flat (absent unless given)."""
-
     end_stop_stiffness: ScalarLike | None
     end_stop_damping: ScalarLike | None
     track_limit: ScalarLike | None
 
 
-class FloorAndWallKeywords(TypedDict, total=False):
-    """The keywords of `FloorAndWall` as a scene takes them flat (absent unless given)."""
-
-    max_events: int | None
+class FloorAndWallKeywords(EventBudgetKeywords, total=False):
     restitution: ScalarLike | None
     wall_position: ScalarLike | None
     min_rebound_speed: ScalarLike | None
 
 
-class HeelStrikeKeywords(TypedDict, total=False):
-    """The keywords of `HeelStrike` as a scene takes them flat (absent unless given)."""
-
-    max_events: int | None
+class HeelStrikeKeywords(EventBudgetKeywords, total=False): ...
 
 
 class JointDampingKeywords(TypedDict, total=False):
-    """The keywords of `JointDamping` as a scene takes them flat (absent unless given)."""
-
     joint_damping: ScalarLike | None
 
 
-class PlaneFrictionKeywords(TypedDict, total=False):
-    """The keywords of `PlaneFriction` as a scene takes them flat (absent unless given)."""
-
-    max_events: int | None
+class PlaneFrictionKeywords(EventBudgetKeywords, total=False):
     static_friction: ScalarLike | None
     kinetic_friction: ScalarLike | None
 
 
-class SpokeContactKeywords(TypedDict, total=False):
-    """The keywords of `SpokeContact` as a scene takes them flat (absent unless given)."""
-
-    max_events: int | None
+class SpokeContactKeywords(EventBudgetKeywords, total=False):
     min_rebound_speed: ScalarLike | None
 
 
-class WallsKeywords(TypedDict, total=False):
-    """The keywords of `Walls` as a scene takes them flat (absent unless given)."""
-
-    max_events: int | None
+class WallsKeywords(EventBudgetKeywords, total=False):
     restitution: ScalarLike | None
     track_limit: ScalarLike | None
     min_rebound_speed: ScalarLike | None
 
 
 class AcrobotDynamicsKeywords(TypedDict, total=False):
-    """The keywords of `AcrobotDynamics`, which a scene built on it takes flat too."""
-
     gravity: ScalarLike
     link_length_1: ScalarLike
     link_mass_1: ScalarLike
@@ -128,15 +112,11 @@ class AcrobotDynamicsKeywords(TypedDict, total=False):
 
 
 class BallDynamicsKeywords(TypedDict, total=False):
-    """The keywords of `BallDynamics`, which a scene built on it takes flat too."""
-
     mass: ScalarLike
     gravity: ScalarLike
 
 
 class CartChainDynamicsKeywords(TypedDict, total=False):
-    """The keywords of `CartChainDynamics`, which a scene built on it takes flat too."""
-
     cart_mass: ScalarLike
     pole_masses: ArrayLike | Sequence[float]
     pole_lengths: ArrayLike | Sequence[float]
@@ -144,8 +124,6 @@ class CartChainDynamicsKeywords(TypedDict, total=False):
 
 
 class CartPoleDynamicsKeywords(TypedDict, total=False):
-    """The keywords of `CartPoleDynamics`, which a scene built on it takes flat too."""
-
     gravity: ScalarLike
     cart_mass: ScalarLike
     pole_mass: ScalarLike
@@ -153,8 +131,6 @@ class CartPoleDynamicsKeywords(TypedDict, total=False):
 
 
 class CompassGaitDynamicsKeywords(TypedDict, total=False):
-    """The keywords of `CompassGaitDynamics`, which a scene built on it takes flat too."""
-
     lower_length: ScalarLike
     upper_length: ScalarLike
     leg_mass: ScalarLike
@@ -164,30 +140,22 @@ class CompassGaitDynamicsKeywords(TypedDict, total=False):
 
 
 class MountainCarDynamicsKeywords(TypedDict, total=False):
-    """The keywords of `MountainCarDynamics`, which a scene built on it takes flat too."""
-
     gravity: ScalarLike
 
 
 class NLinkPendulumDynamicsKeywords(TypedDict, total=False):
-    """The keywords of `NLinkPendulumDynamics`, which a scene built on it takes flat too."""
-
     masses: ArrayLike | Sequence[float]
     lengths: ArrayLike | Sequence[float]
     gravity: ScalarLike
 
 
 class PendulumDynamicsKeywords(TypedDict, total=False):
-    """The keywords of `PendulumDynamics`, which a scene built on it takes flat too."""
-
     gravity: ScalarLike
     mass: ScalarLike
     length: ScalarLike
 
 
 class PlanarQuadrotorDynamicsKeywords(TypedDict, total=False):
-    """The keywords of `PlanarQuadrotorDynamics`, which a scene built on it takes flat too."""
-
     mass: ScalarLike
     arm_length: ScalarLike
     moment_of_inertia: ScalarLike
@@ -195,8 +163,6 @@ class PlanarQuadrotorDynamicsKeywords(TypedDict, total=False):
 
 
 class RimlessWheelDynamicsKeywords(TypedDict, total=False):
-    """The keywords of `RimlessWheelDynamics`, which a scene built on it takes flat too."""
-
     leg_length: ScalarLike
     spoke_half_angle: ScalarLike
     slope: ScalarLike
@@ -205,30 +171,24 @@ class RimlessWheelDynamicsKeywords(TypedDict, total=False):
 
 
 class SimplestWalkerDynamicsKeywords(TypedDict, total=False):
-    """The keywords of `SimplestWalkerDynamics`, which a scene built on it takes flat too."""
-
     slope: ScalarLike
 
 
 class SlidingBlockDynamicsKeywords(TypedDict, total=False):
-    """The keywords of `SlidingBlockDynamics`, which a scene built on it takes flat too."""
-
     mass: ScalarLike
     gravity: ScalarLike
     incline: ScalarLike
 
 
 class VanDerPolDynamicsKeywords(TypedDict, total=False):
-    """The keywords of `VanDerPolDynamics`, which a scene built on it takes flat too."""
-
     mu: ScalarLike
 
 
 __all__ = [
     "IntegratorKeywords", "AbstractCartPoleKeywords", "AbstractMountainCarKeywords",
-    "CartFrictionKeywords", "EndStopsKeywords", "FloorAndWallKeywords", "HeelStrikeKeywords",
-    "JointDampingKeywords", "PlaneFrictionKeywords", "SpokeContactKeywords", "WallsKeywords",
-    "AcrobotDynamicsKeywords", "BallDynamicsKeywords", "CartChainDynamicsKeywords",
+    "EventBudgetKeywords", "CartFrictionKeywords", "EndStopsKeywords", "FloorAndWallKeywords",
+    "HeelStrikeKeywords", "JointDampingKeywords", "PlaneFrictionKeywords", "SpokeContactKeywords",
+    "WallsKeywords", "AcrobotDynamicsKeywords", "BallDynamicsKeywords", "CartChainDynamicsKeywords",
     "CartPoleDynamicsKeywords", "CompassGaitDynamicsKeywords", "MountainCarDynamicsKeywords",
     "NLinkPendulumDynamicsKeywords", "PendulumDynamicsKeywords", "PlanarQuadrotorDynamicsKeywords",
     "RimlessWheelDynamicsKeywords", "SimplestWalkerDynamicsKeywords", "SlidingBlockDynamicsKeywords",
