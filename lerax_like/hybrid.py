@@ -48,18 +48,14 @@ import equinox as eqx
 import equinox.internal as eqxi
 import jax
 import jax.numpy as jnp
-import optimistix
 
+from ._segments import finish_step, scan_segments, segment_solver
 from ._types import Array, Bool, Float, Input, ScalarLike, State
-from .integrate import GuardedPIDController, Integrator, ProjectedODETerm, SemiImplicitEuler
+from .integrate import GuardedPIDController, Integrator
 from .physics import AbstractDynamics
 from .physics.contact import AbstractContact, AbstractImpulseContact, MechanicalDynamics, with_coordinates
 
 
-# The share of `dt` that an env which has finished its step integrates again, discarded, while
-# the other envs of a vmapped batch finish theirs (`integrate_with_contacts`): any positive
-# share keeps that solve finite; a small one keeps it to one step.
-IDLE_FRACTION = 2.0**-10
 # A surface struck again within this share of `dt` of its last impact has come to rest: the
 # bounces of a Zeno sequence are shorter than the step can resolve. A fixed-step solver can
 # reach it at a speed above `min_rebound_speed`: semi-implicit Euler pushed into a wall
@@ -298,37 +294,17 @@ def integrate_with_contacts(
     scene's own physics module, whose `coordinates` and `energy` the contacts read. The
     physics is read at the episode's time, `t0` plus the solve's (as `Integrator.integrate`).
     """
-    adjoint = integrator.adjoint
-    if isinstance(adjoint, diffrax.BacksolveAdjoint):
-        raise ValueError(
-            "adjoint BacksolveAdjoint cannot differentiate through located events (diffrax refuses "
-            "events with it): use with_adjoint(env, 'checkpoint') (reverse mode) or 'forward' (jacfwd)"
-        )
     max_events = max(contact.max_events for contact in contacts)
     dtype = y0.dtype
     dt = jnp.asarray(dt, dtype=dtype)
     surfaces = _Surfaces(physics=physics, dynamics=dynamics, contacts=tuple(contacts), t0=jnp.asarray(t0, dtype=dtype))
-    solver = integrator.solver
-    if isinstance(solver, SemiImplicitEuler):
-        term = ProjectedODETerm(surfaces.vector_field, velocity_indices=physics.velocity_indices)
-    else:
-        term = diffrax.ODETerm(surfaces.vector_field)
     controller = integrator.stepsize_controller
     if type(controller) in (diffrax.PIDController, GuardedPIDController):
         settings = {name: getattr(controller, name) for name in diffrax.PIDController.__dataclass_fields__}
         controller = GrazingGuardController(**settings, guard=surfaces.guard)
-    dt0 = dt / integrator.substeps if isinstance(controller, diffrax.ConstantStepSize) else None
-    tolerance = 4 * float(jnp.finfo(dtype).eps)
-    event = diffrax.Event(
-        surfaces.condition,
-        root_finder=optimistix.Bisection(rtol=tolerance, atol=tolerance, flip=True),
-        direction=False,
+    solve = segment_solver(
+        integrator, surfaces.vector_field, physics.velocity_indices, surfaces.condition, dt, stepsize_controller=controller
     )
-
-    def segment(carry, _):
-        # Segments after every env's last one are skipped whole (`unvmap_any`: over a batch).
-        done = carry[1] >= dt
-        return jax.lax.cond(eqxi.unvmap_any(~done), checkpointed_segment, lambda carry: carry, carry), None
 
     def solve_segment(carry):
         y, t, resting, ok, steps, rejected, impacts, first, struck, struck_at = carry
@@ -342,32 +318,14 @@ def integrate_with_contacts(
         first = jnp.where((hits > 0) & (first == jnp.inf), t, first)
         struck_at = jnp.where(hits > 0, t, struck_at)
         struck = jnp.where(hits > 0, hit, struck)
-        # An env that has reached dt still runs this segment while another env of a vmapped
-        # batch has not, and diffrax's step loop runs its steps too, their results dropped by
-        # a select. Over the empty interval [dt, dt] those steps are not finite (diffrax
-        # 0.7.2's ConstantStepSize divides by its number of steps, 0 there), and in reverse
-        # mode the dropped value's zero cotangent times their infinite partial derivative is
-        # NaN: the "double where" trap, which reached the event's implicit adjoint as lineax's
-        # "non-finite input" (issue 29). So a finished env solves a short interval ending at
-        # dt instead, from its own state, and its result is dropped here: finite by
-        # construction, whatever the solver, controller and contact.
-        start = jnp.where(done, dt * (1 - IDLE_FRACTION), t)
-        solution = diffrax.diffeqsolve(
-            term, solver, t0=start, t1=dt, dt0=dt0, y0=y, args=(u, resting), stepsize_controller=controller,
-            max_steps=integrator.max_steps, adjoint=adjoint, event=event, throw=False,
-        )
-        assert solution.ys is not None and solution.ts is not None  # diffeqsolve's default SaveAt(t1=True)
-        result = solution.result
-        solved = (result == diffrax.RESULTS.successful) | (result == diffrax.RESULTS.event_occurred)
-        accepted = jnp.where(done, 0, solution.stats["num_accepted_steps"])
-        tried = jnp.where(done, 0, solution.stats["num_steps"])
+        end = solve(y, t, (u, resting))
         carry = (
-            jnp.where(done, y, solution.ys[-1]),
-            jnp.where(done, dt, solution.ts[-1]),
+            end.y,
+            end.t,
             resting,
-            ok & (done | solved),
-            steps + accepted,
-            rejected + tried - accepted,
+            ok & (done | end.solved),
+            steps + end.accepted,
+            rejected + end.tried - end.accepted,
             impacts + hits,
             first,
             struck,
@@ -386,20 +344,9 @@ def integrate_with_contacts(
         y0, jnp.zeros((), dtype), resting, jnp.asarray(True), zero, zero, zero, jnp.asarray(jnp.inf, dtype),
         jnp.zeros_like(resting), never,
     )
-    (y, t, _, ok, steps, rejected, impacts, first, _, _), _ = jax.lax.scan(segment, initial, None, length=max_events + 1)
-    finite = jnp.all(jnp.isfinite(y))
-    if projection is not None:
-        y = projection(y)
-    # Events left over when the budget ran out: the step did not reach dt.
-    ok = ok & (t >= dt) & finite & jnp.all(jnp.isfinite(y))
-    info = {
-        "solver_ok": ok,
-        "solver_steps": steps,
-        "solver_rejected_steps": rejected,
-        "impacts": impacts,
-        "first_impact_time": first,
-    }
-    return y, info
+    y, t, _, ok, steps, rejected, impacts, first, _, _ = scan_segments(checkpointed_segment, initial, max_events + 1, dt)
+    y, info = finish_step(y, t, ok, steps, rejected, dt, projection)
+    return y, info | {"impacts": impacts, "first_impact_time": first}
 
 
 __all__ = ["GrazingGuardController", "integrate_with_contacts"]

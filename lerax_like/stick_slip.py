@@ -37,14 +37,13 @@ from typing import Any, NamedTuple, final
 
 import diffrax
 import equinox as eqx
-import equinox.internal as eqxi
 import jax
 import jax.numpy as jnp
 import optimistix
 
+from ._segments import finish_step, scan_segments, segment_solver
 from ._types import Array, Float, Input, ScalarLike, State
-from .hybrid import IDLE_FRACTION
-from .integrate import Integrator, ProjectedODETerm, SemiImplicitEuler
+from .integrate import Integrator
 from .physics import AbstractDynamics
 from .physics.contact import with_coordinates
 from .physics.friction import AbstractCoulombFriction
@@ -204,32 +203,12 @@ def integrate_with_friction(
     `physics` is the dynamics with any force add-ons (`ForcedDynamics`), whose generalised
     force the friction adds to; `dynamics` the scene's own physics module.
     """
-    adjoint = integrator.adjoint
-    if isinstance(adjoint, diffrax.BacksolveAdjoint):
-        raise ValueError(
-            "adjoint BacksolveAdjoint cannot differentiate through located events (diffrax refuses "
-            "events with it): use with_adjoint(env, 'checkpoint') (reverse mode) or 'forward' (jacfwd)"
-        )
     modes = FrictionModes(physics=physics, dynamics=dynamics, friction=friction, t0=t0)
     dtype = y0.dtype
     dt = jnp.asarray(dt, dtype=dtype)
-    solver = integrator.solver
-    if isinstance(solver, SemiImplicitEuler):
-        term = ProjectedODETerm(modes.vector_field, velocity_indices=physics.velocity_indices)
-    else:
-        term = diffrax.ODETerm(modes.vector_field)
-    controller = integrator.stepsize_controller
-    dt0 = dt / integrator.substeps if isinstance(controller, diffrax.ConstantStepSize) else None
-    tolerance = 4 * float(jnp.finfo(dtype).eps)
-    event = diffrax.Event(
-        modes.condition,
-        root_finder=_TimeBisection(rtol=tolerance, atol=tolerance, flip=True),
-        direction=False,
+    solve = segment_solver(
+        integrator, modes.vector_field, physics.velocity_indices, modes.condition, dt, root_finder=_TimeBisection
     )
-
-    def segment(carry, _):
-        done = carry[1] >= dt
-        return jax.lax.cond(eqxi.unvmap_any(~done), solve_segment, lambda carry: carry, carry), None
 
     def solve_segment(carry):
         y, t, mode, ended, which, ok, consistent, steps, rejected, switches, first = carry
@@ -238,36 +217,22 @@ def integrate_with_friction(
         y = jnp.where(done, y, settled)
         mode = jax.tree.map(lambda new, old: jnp.where(done, old, new), new_mode, mode)
         consistent = consistent & (done | fits)
-        # A finished env of a vmapped batch solves a short interval ending at dt, its result
-        # dropped: over the empty [dt, dt] diffrax's steps are not finite, and reverse mode
-        # turns that into NaN for the whole batch (as in `hybrid.integrate_with_contacts`).
-        start = jnp.where(done, dt * (1 - IDLE_FRACTION), t)
-        solution = diffrax.diffeqsolve(
-            term, solver, t0=start, t1=dt, dt0=dt0, y0=y, args=(u, mode), stepsize_controller=controller,
-            max_steps=integrator.max_steps, adjoint=adjoint, event=event, throw=False,
-        )
-        result = solution.result
-        solved = (result == diffrax.RESULTS.successful) | (result == diffrax.RESULTS.event_occurred)
-        event_ended = (result == diffrax.RESULTS.event_occurred) & ~done
-        assert solution.ys is not None and solution.ts is not None  # diffeqsolve's default SaveAt(t1=True)
-        end = jnp.where(done, y, solution.ys[-1])
-        t_end = jnp.where(done, dt, solution.ts[-1])
+        end = solve(y, t, (u, mode))
+        event_ended = (end.result == diffrax.RESULTS.event_occurred) & ~done
         # The condition nearest zero at the event is the one that fell.
-        which = jnp.argmin(modes.conditions(t_end, end, (u, mode)))
-        accepted = jnp.where(done, 0, solution.stats["num_accepted_steps"])
-        tried = jnp.where(done, 0, solution.stats["num_steps"])
+        which = jnp.argmin(modes.conditions(end.t, end.y, (u, mode)))
         return (
-            end,
-            t_end,
+            end.y,
+            end.t,
             mode,
             event_ended,
             which,
-            ok & (done | solved),
+            ok & (done | end.solved),
             consistent,
-            steps + accepted,
-            rejected + tried - accepted,
+            steps + end.accepted,
+            rejected + end.tried - end.accepted,
             switches + event_ended.astype(int),
-            jnp.where(event_ended & (first == jnp.inf), t_end, first),
+            jnp.where(event_ended & (first == jnp.inf), end.t, first),
         )
 
     zero = jnp.zeros((), dtype=int)
@@ -276,22 +241,10 @@ def integrate_with_friction(
         y0, jnp.zeros((), dtype), mode, jnp.asarray(False), zero, jnp.asarray(True), jnp.asarray(True),
         zero, zero, zero, jnp.asarray(jnp.inf, dtype),
     )
-    final, _ = jax.lax.scan(segment, initial, None, length=friction.max_events + 1)
+    final = scan_segments(solve_segment, initial, friction.max_events + 1, dt)
     y, t, _, _, _, ok, consistent, steps, rejected, switches, first = final
-    finite = jnp.all(jnp.isfinite(y))
-    if projection is not None:
-        y = projection(y)
-    # Switches left over when the budget ran out: the step did not reach dt.
-    ok = ok & consistent & (t >= dt) & finite & jnp.all(jnp.isfinite(y))
-    info = {
-        "solver_ok": ok,
-        "solver_steps": steps,
-        "solver_rejected_steps": rejected,
-        "switches": switches,
-        "first_switch_time": first,
-        "friction_consistent": consistent,
-    }
-    return y, info
+    y, info = finish_step(y, t, ok & consistent, steps, rejected, dt, projection)
+    return y, info | {"switches": switches, "first_switch_time": first, "friction_consistent": consistent}
 
 
 __all__ = ["FrictionModes", "integrate_with_friction"]

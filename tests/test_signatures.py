@@ -9,6 +9,7 @@ of its dynamics and of its add-ons, and from `make_integrator`'s own signature, 
 
 import dataclasses
 import inspect
+import re
 
 import equinox as eqx
 import gymnasium
@@ -17,7 +18,13 @@ import numpy as np
 import pytest
 
 import lerax_like as ll
-from lerax_like._constructor_source import constructor_source, current, final_classes
+from lerax_like._constructor_source import (
+    constructor_source,
+    current,
+    final_classes,
+    groups,
+    keywords_module_current,
+)
 from lerax_like._fields import AbstractParametrised
 
 
@@ -110,6 +117,35 @@ def test_every_final_class_declares_its_constructor_to_a_type_checker(cls):
         f"{cls.__module__}.{cls.__name__}'s constructor block is not current: run "
         f"`python -m lerax_like._constructor_source --write`, or paste after its docstring:\n\n{constructor_source(cls)}"
     )
+
+
+def test_the_shared_keywords_module_is_current_and_each_group_is_declared_once():
+    assert keywords_module_current(), (
+        "lerax_like/_keywords.py is not current: run `python -m lerax_like._constructor_source --write`"
+    )
+    import lerax_like._keywords as shared
+
+    for group in groups():
+        declared = getattr(shared, group.name).__annotations__
+        assert list(declared) == [key for key, _ in group.keywords], group.name
+    # Each group's keywords stand in the module once, and in no block: a block lists only its own.
+    for cls in final_classes():
+        block = constructor_source(cls)
+        listed = set(re.findall(r"^ {12}(\w+):", block, re.MULTILINE))
+        for group in groups():
+            if re.search(rf"\b{group.name}\b", block):
+                assert not listed & {key for key, _ in group.keywords}, (cls.__name__, group.name)
+
+
+@pytest.mark.parametrize(("name", "scene"), SCENES, ids=[name for name, _ in SCENES])
+def test_a_scenes_block_takes_exactly_the_keywords_of_its_signature(name, scene):
+    """What a block declares (its own keywords and its groups') is what the runtime signature takes."""
+    if not scene.__module__.startswith("lerax_like."):
+        pytest.skip("a test scene declares no block")
+    block = constructor_source(scene)
+    taken = set(re.findall(r"^ {12}(\w+):", block, re.MULTILINE))
+    taken |= {key for group in groups() if re.search(rf"\b{group.name}\b", block) for key, _ in group.keywords}
+    assert taken == set(inspect.signature(scene).parameters), name
 
 
 @pytest.mark.parametrize(

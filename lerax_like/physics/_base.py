@@ -28,6 +28,16 @@ class AbstractDynamics(AbstractParametrised):
         raise NotImplementedError
 
 
+def require_attributes(addon: object, dynamics: AbstractDynamics, names: tuple[str, ...], purpose: str) -> None:
+    """Refuse, naming each one missing, dynamics without the attributes an add-on reads (`purpose`: what for)."""
+    missing = [name for name in names if not hasattr(dynamics, name)]
+    if missing:
+        raise ValueError(
+            f"{type(addon).__name__} needs dynamics with {' and '.join(missing)} ({purpose}), "
+            f"and {type(dynamics).__name__} has none"
+        )
+
+
 class AbstractConservativeDynamics(AbstractDynamics):
     """Dynamics with an energy that is conserved when the input is zero."""
 

@@ -23,20 +23,11 @@ class AcrobotDynamics(AbstractConservativeDynamics):
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+        from typing import Unpack
 
-        def __init__(
-            self,
-            *,
-            gravity: ScalarLike = 9.8,
-            link_length_1: ScalarLike = 1.0,
-            link_mass_1: ScalarLike = 1.0,
-            link_mass_2: ScalarLike = 1.0,
-            link_com_position_1: ScalarLike = 0.5,
-            link_com_position_2: ScalarLike = 0.5,
-            link_moment_of_inertia_1: ScalarLike = 1.0,
-            link_moment_of_inertia_2: ScalarLike = 1.0,
-            equations: Literal['book', 'nips'] = 'book',
-        ) -> None: ...
+        from lerax_like._keywords import AcrobotDynamicsKeywords
+
+        def __init__(self, **keywords: Unpack[AcrobotDynamicsKeywords]) -> None: ...
     # (end of the constructor written by python -m lerax_like._constructor_source)
 
     velocity_indices: ClassVar[tuple[int, ...]] = (2, 3)

@@ -19,13 +19,11 @@ class BallDynamics(AbstractConservativeDynamics):
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+        from typing import Unpack
 
-        def __init__(
-            self,
-            *,
-            mass: ScalarLike = 1.0,
-            gravity: ScalarLike = 9.81,
-        ) -> None: ...
+        from lerax_like._keywords import BallDynamicsKeywords
+
+        def __init__(self, **keywords: Unpack[BallDynamicsKeywords]) -> None: ...
     # (end of the constructor written by python -m lerax_like._constructor_source)
 
     velocity_indices: ClassVar[tuple[int, ...]] = (2, 3)

@@ -26,15 +26,11 @@ class CartPoleDynamics(AbstractChainDynamics):
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+        from typing import Unpack
 
-        def __init__(
-            self,
-            *,
-            gravity: ScalarLike = 9.8,
-            cart_mass: ScalarLike = 1.0,
-            pole_mass: ScalarLike = 0.1,
-            half_length: ScalarLike = 0.5,
-        ) -> None: ...
+        from lerax_like._keywords import CartPoleDynamicsKeywords
+
+        def __init__(self, **keywords: Unpack[CartPoleDynamicsKeywords]) -> None: ...
     # (end of the constructor written by python -m lerax_like._constructor_source)
 
     velocity_indices: ClassVar[tuple[int, ...]] = (1, 3)

@@ -112,16 +112,11 @@ class NLinkPendulumDynamics(AbstractChainDynamics):
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        from collections.abc import Sequence
-        from lerax_like._types import ArrayLike
+        from typing import Unpack
 
-        def __init__(
-            self,
-            *,
-            masses: ArrayLike | Sequence[float] = (1.0, 1.0, 1.0),
-            lengths: ArrayLike | Sequence[float] = (1.0, 1.0, 1.0),
-            gravity: ScalarLike = 9.81,
-        ) -> None: ...
+        from lerax_like._keywords import NLinkPendulumDynamicsKeywords
+
+        def __init__(self, **keywords: Unpack[NLinkPendulumDynamicsKeywords]) -> None: ...
     # (end of the constructor written by python -m lerax_like._constructor_source)
 
     velocity_indices: ClassVar[None] = None  # the layout depends on the number of links
@@ -175,17 +170,11 @@ class CartChainDynamics(AbstractChainDynamics):
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        from collections.abc import Sequence
-        from lerax_like._types import ArrayLike
+        from typing import Unpack
 
-        def __init__(
-            self,
-            *,
-            cart_mass: ScalarLike = 1.0,
-            pole_masses: ArrayLike | Sequence[float] = (0.1, 0.1),
-            pole_lengths: ArrayLike | Sequence[float] = (1.0, 1.0),
-            gravity: ScalarLike = 9.81,
-        ) -> None: ...
+        from lerax_like._keywords import CartChainDynamicsKeywords
+
+        def __init__(self, **keywords: Unpack[CartChainDynamicsKeywords]) -> None: ...
     # (end of the constructor written by python -m lerax_like._constructor_source)
 
     velocity_indices: ClassVar[None] = None  # the layout depends on the number of links

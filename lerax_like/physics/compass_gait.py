@@ -40,17 +40,11 @@ class CompassGaitDynamics(AbstractWalkerDynamics):
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+        from typing import Unpack
 
-        def __init__(
-            self,
-            *,
-            lower_length: ScalarLike = 0.5,
-            upper_length: ScalarLike = 0.5,
-            leg_mass: ScalarLike = 5.0,
-            hip_mass: ScalarLike = 10.0,
-            slope: ScalarLike = 0.05235987755982988,
-            gravity: ScalarLike = 9.81,
-        ) -> None: ...
+        from lerax_like._keywords import CompassGaitDynamicsKeywords
+
+        def __init__(self, **keywords: Unpack[CompassGaitDynamicsKeywords]) -> None: ...
     # (end of the constructor written by python -m lerax_like._constructor_source)
 
     velocity_indices: ClassVar[tuple[int, ...]] = (2, 3)

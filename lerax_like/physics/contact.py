@@ -36,7 +36,7 @@ import numpy as np
 
 from .._fields import POSITIVE, AbstractParametrised, Range, option, parameter
 from .._types import Array, Bool, Float, Scalar, ScalarLike, State
-from ._base import AbstractChainDynamics, AbstractDynamics
+from ._base import AbstractChainDynamics, AbstractDynamics, require_attributes
 
 
 RESTITUTION = Range(
@@ -102,12 +102,7 @@ class AbstractImpulseContact(AbstractContact):
     min_rebound_speed: eqx.AbstractVar[Scalar]  # pyright: ignore[reportGeneralTypeIssues]
 
     def check(self, dynamics: AbstractDynamics) -> None:
-        missing = [name for name in ("coordinates", "energy") if not hasattr(dynamics, name)]
-        if missing:
-            raise ValueError(
-                f"{type(self).__name__} needs dynamics with {' and '.join(missing)} (generalised "
-                f"coordinates and energy, for the mass matrix), and {type(dynamics).__name__} has none"
-            )
+        require_attributes(self, dynamics, ("coordinates", "energy"), "generalised coordinates and energy, for the mass matrix")
 
     def impact(self, dynamics: AbstractDynamics, y: State, surface: int) -> State:
         """Reverse the normal velocity on `surface` times `restitution`, impulse-consistently.
@@ -190,7 +185,6 @@ class Walls(AbstractImpulseContact):
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        from lerax_like._types import ScalarLike
 
         def __init__(
             self,

@@ -28,7 +28,7 @@ import numpy as np
 
 from .._fields import NONNEGATIVE, AbstractParametrised, concrete, option, parameter
 from .._types import Array, Float, Scalar, State
-from ._base import AbstractDynamics
+from ._base import AbstractDynamics, require_attributes
 from .contact import mass_matrix, with_coordinates
 
 
@@ -60,12 +60,8 @@ class AbstractCoulombFriction(AbstractParametrised):
 
     def check(self, dynamics: AbstractDynamics) -> None:
         """Refuse, naming both, dynamics this friction cannot act on."""
-        missing = [name for name in ("coordinates", "forced_vector_field") if not hasattr(dynamics, name)]
-        if missing:
-            raise ValueError(
-                f"{type(self).__name__} needs dynamics with {' and '.join(missing)} (generalised coordinates "
-                f"and a generalised force to act through), and {type(dynamics).__name__} has none"
-            )
+        purpose = "generalised coordinates and a generalised force to act through"
+        require_attributes(self, dynamics, ("coordinates", "forced_vector_field"), purpose)
 
     def __check_init__(self):
         if isinstance(self.max_events, bool) or not isinstance(self.max_events, (int, np.integer)) or self.max_events < 1:

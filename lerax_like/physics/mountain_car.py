@@ -20,12 +20,11 @@ class MountainCarDynamics(AbstractConservativeDynamics):
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+        from typing import Unpack
 
-        def __init__(
-            self,
-            *,
-            gravity: ScalarLike = 0.0025,
-        ) -> None: ...
+        from lerax_like._keywords import MountainCarDynamicsKeywords
+
+        def __init__(self, **keywords: Unpack[MountainCarDynamicsKeywords]) -> None: ...
     # (end of the constructor written by python -m lerax_like._constructor_source)
 
     velocity_indices: ClassVar[tuple[int, ...]] = (1,)

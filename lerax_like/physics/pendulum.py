@@ -18,14 +18,11 @@ class PendulumDynamics(AbstractConservativeDynamics):
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+        from typing import Unpack
 
-        def __init__(
-            self,
-            *,
-            gravity: ScalarLike = 10.0,
-            mass: ScalarLike = 1.0,
-            length: ScalarLike = 1.0,
-        ) -> None: ...
+        from lerax_like._keywords import PendulumDynamicsKeywords
+
+        def __init__(self, **keywords: Unpack[PendulumDynamicsKeywords]) -> None: ...
     # (end of the constructor written by python -m lerax_like._constructor_source)
 
     velocity_indices: ClassVar[tuple[int, ...]] = (1,)

@@ -27,15 +27,11 @@ class PlanarQuadrotorDynamics(AbstractConservativeDynamics):
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+        from typing import Unpack
 
-        def __init__(
-            self,
-            *,
-            mass: ScalarLike = 1.0,
-            arm_length: ScalarLike = 0.25,
-            moment_of_inertia: ScalarLike = 0.01,
-            gravity: ScalarLike = 9.81,
-        ) -> None: ...
+        from lerax_like._keywords import PlanarQuadrotorDynamicsKeywords
+
+        def __init__(self, **keywords: Unpack[PlanarQuadrotorDynamicsKeywords]) -> None: ...
     # (end of the constructor written by python -m lerax_like._constructor_source)
 
     velocity_indices: ClassVar[tuple[int, ...]] = (3, 4, 5)

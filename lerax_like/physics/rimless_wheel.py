@@ -50,16 +50,11 @@ class RimlessWheelDynamics(AbstractWalkerDynamics):
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+        from typing import Unpack
 
-        def __init__(
-            self,
-            *,
-            leg_length: ScalarLike = 1.0,
-            spoke_half_angle: ScalarLike = 0.39269908169872414,
-            slope: ScalarLike = 0.08,
-            gravity: ScalarLike = 9.81,
-            mass: ScalarLike = 1.0,
-        ) -> None: ...
+        from lerax_like._keywords import RimlessWheelDynamicsKeywords
+
+        def __init__(self, **keywords: Unpack[RimlessWheelDynamicsKeywords]) -> None: ...
     # (end of the constructor written by python -m lerax_like._constructor_source)
 
     velocity_indices: ClassVar[tuple[int, ...]] = (1,)

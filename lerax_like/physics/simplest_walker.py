@@ -42,12 +42,11 @@ class SimplestWalkerDynamics(AbstractWalkerDynamics):
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+        from typing import Unpack
 
-        def __init__(
-            self,
-            *,
-            slope: ScalarLike = 0.009,
-        ) -> None: ...
+        from lerax_like._keywords import SimplestWalkerDynamicsKeywords
+
+        def __init__(self, **keywords: Unpack[SimplestWalkerDynamicsKeywords]) -> None: ...
     # (end of the constructor written by python -m lerax_like._constructor_source)
 
     velocity_indices: ClassVar[tuple[int, ...]] = (2, 3)

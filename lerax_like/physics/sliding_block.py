@@ -25,14 +25,11 @@ class SlidingBlockDynamics(AbstractConservativeDynamics):
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+        from typing import Unpack
 
-        def __init__(
-            self,
-            *,
-            mass: ScalarLike = 1.0,
-            gravity: ScalarLike = 9.81,
-            incline: ScalarLike = 0.0,
-        ) -> None: ...
+        from lerax_like._keywords import SlidingBlockDynamicsKeywords
+
+        def __init__(self, **keywords: Unpack[SlidingBlockDynamicsKeywords]) -> None: ...
     # (end of the constructor written by python -m lerax_like._constructor_source)
 
     velocity_indices: ClassVar[tuple[int, ...]] = (1,)

@@ -25,12 +25,11 @@ class VanDerPolDynamics(AbstractDynamics):
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
+        from typing import Unpack
 
-        def __init__(
-            self,
-            *,
-            mu: ScalarLike = 1.0,
-        ) -> None: ...
+        from lerax_like._keywords import VanDerPolDynamicsKeywords
+
+        def __init__(self, **keywords: Unpack[VanDerPolDynamicsKeywords]) -> None: ...
     # (end of the constructor written by python -m lerax_like._constructor_source)
 
     velocity_indices: ClassVar[None] = None  # first order in this form

@@ -1,12 +1,12 @@
 """What the walkers' scenes share: walk at a target speed with a bounded torque, until a fall."""
 
-from typing import cast
+from typing import ClassVar, cast
 
 import equinox as eqx
 import jax.numpy as jnp
 
 from .._types import Array, BoolScalar, Key, Scalar
-from ..physics.walker import AbstractWalkerDynamics
+from ..physics.walker import AbstractWalkerDynamics, HeelStrike
 from ..env import EnvState
 from ._unit_action import AbstractUnitActionEnv
 
@@ -16,9 +16,16 @@ class AbstractWalkerEnv(AbstractUnitActionEnv):
 
     Reward `-min((v - target_speed)**2, max_cost) - action_cost * a**2` after the step, `v`
     the hip's speed along the slope (`dynamics.hip_speed`); terminated when the walker
-    falls, its stance leg at `fall_angle` or more from the slope's normal.
+    falls, its stance leg at `fall_angle` or more from the slope's normal. Its one action is
+    the torque `max_torque * a`, and its one add-on the heel strike.
     """
 
+    stochastic: ClassVar[bool] = False  # nothing random but the start
+    action_size: ClassVar[int] = 1
+    action_scale: ClassVar[str] = "max_torque"
+    addons: ClassVar[tuple[type, ...]] = (HeelStrike,)
+
+    max_torque: eqx.AbstractVar[Scalar]
     target_speed: eqx.AbstractVar[Scalar]
     max_cost: eqx.AbstractVar[Scalar]
     action_cost: eqx.AbstractVar[Scalar]

@@ -62,34 +62,23 @@ class Acrobot(AbstractEnv):
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        from typing import Literal
-        import diffrax
+        from typing import Unpack
+
+        from lerax_like._keywords import AcrobotDynamicsKeywords, IntegratorKeywords
         from lerax_like._types import ScalarLike
+
+        class _Keywords(AcrobotDynamicsKeywords, IntegratorKeywords, total=False): ...
 
         def __init__(
             self,
             *,
             dynamics: AcrobotDynamics = ...,
-            integrator: Integrator = ...,
             torque: ScalarLike = 1.0,
             max_velocity_1: ScalarLike = 12.566370614359172,
             max_velocity_2: ScalarLike = 28.274333882308138,
             dt: ScalarLike = 0.2,
             max_episode_steps: int | None = 500,
-            gravity: ScalarLike = 9.8,
-            link_length_1: ScalarLike = 1.0,
-            link_mass_1: ScalarLike = 1.0,
-            link_mass_2: ScalarLike = 1.0,
-            link_com_position_1: ScalarLike = 0.5,
-            link_com_position_2: ScalarLike = 0.5,
-            link_moment_of_inertia_1: ScalarLike = 1.0,
-            link_moment_of_inertia_2: ScalarLike = 1.0,
-            equations: Literal['book', 'nips'] = 'book',
-            solver: str | diffrax.AbstractSolver | Integrator = 'rk4',
-            stepsize_controller: diffrax.AbstractStepSizeController | None = None,
-            max_steps: int | None = None,
-            adjoint: diffrax.AbstractAdjoint | None = None,
-            substeps: int = 1,
+            **keywords: Unpack[_Keywords],
         ) -> None: ...
     # (end of the constructor written by python -m lerax_like._constructor_source)
 

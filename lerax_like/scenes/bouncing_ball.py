@@ -53,14 +53,17 @@ class BouncingBall(AbstractUnitActionEnv):
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        import diffrax
+        from typing import Unpack
+
+        from lerax_like._keywords import BallDynamicsKeywords, FloorAndWallKeywords, IntegratorKeywords
         from lerax_like._types import ScalarLike
+
+        class _Keywords(BallDynamicsKeywords, IntegratorKeywords, FloorAndWallKeywords, total=False): ...
 
         def __init__(
             self,
             *,
             dynamics: BallDynamics = ...,
-            integrator: Integrator = ...,
             contacts: tuple = ...,
             max_thrust: ScalarLike = 20.0,
             target_x: ScalarLike = 0.5,
@@ -71,17 +74,7 @@ class BouncingBall(AbstractUnitActionEnv):
             action_cost: ScalarLike = 0.01,
             dt: ScalarLike = 0.02,
             max_episode_steps: int | None = 200,
-            mass: ScalarLike = 1.0,
-            gravity: ScalarLike = 9.81,
-            solver: str | diffrax.AbstractSolver | Integrator = 'tsit5',
-            stepsize_controller: diffrax.AbstractStepSizeController | None = None,
-            max_steps: int | None = None,
-            adjoint: diffrax.AbstractAdjoint | None = None,
-            substeps: int = 1,
-            max_events: int | None = None,
-            restitution: ScalarLike | None = None,
-            wall_position: ScalarLike | None = None,
-            min_rebound_speed: ScalarLike | None = None,
+            **keywords: Unpack[_Keywords],
         ) -> None: ...
     # (end of the constructor written by python -m lerax_like._constructor_source)
 

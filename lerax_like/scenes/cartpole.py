@@ -117,41 +117,17 @@ class CartPole(AbstractCartPole):
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        import diffrax
-        from lerax_like._types import ScalarLike
+        from typing import Unpack
+
+        from lerax_like._keywords import AbstractCartPoleKeywords, CartFrictionKeywords, CartPoleDynamicsKeywords, EndStopsKeywords, IntegratorKeywords, JointDampingKeywords, WallsKeywords
+
+        class _Keywords(AbstractCartPoleKeywords, CartPoleDynamicsKeywords, IntegratorKeywords, JointDampingKeywords, EndStopsKeywords, WallsKeywords, CartFrictionKeywords, total=False): ...
 
         def __init__(
             self,
             *,
-            dynamics: CartPoleDynamics = ...,
-            integrator: Integrator = ...,
-            forces: tuple = (),
-            contacts: tuple = (),
-            friction: tuple = (),
-            force_mag: ScalarLike = 10.0,
-            theta_threshold_radians: ScalarLike = 0.20943951023931953,
-            x_threshold: ScalarLike = 2.4,
-            dt: ScalarLike = 0.02,
-            max_episode_steps: int | None = 500,
             sutton_barto_reward: bool = False,
-            gravity: ScalarLike = 9.8,
-            cart_mass: ScalarLike = 1.0,
-            pole_mass: ScalarLike = 0.1,
-            half_length: ScalarLike = 0.5,
-            solver: str | diffrax.AbstractSolver | Integrator = 'euler',
-            stepsize_controller: diffrax.AbstractStepSizeController | None = None,
-            max_steps: int | None = None,
-            adjoint: diffrax.AbstractAdjoint | None = None,
-            substeps: int = 1,
-            joint_damping: ScalarLike | None = None,
-            end_stop_stiffness: ScalarLike | None = None,
-            end_stop_damping: ScalarLike | None = None,
-            track_limit: ScalarLike | None = None,
-            max_events: int | None = None,
-            restitution: ScalarLike | None = None,
-            min_rebound_speed: ScalarLike | None = None,
-            cart_static_friction: ScalarLike | None = None,
-            cart_kinetic_friction: ScalarLike | None = None,
+            **keywords: Unpack[_Keywords],
         ) -> None: ...
     # (end of the constructor written by python -m lerax_like._constructor_source)
 
@@ -208,43 +184,20 @@ class CartPoleContinuous(AbstractCartPole, AbstractUnitActionEnv):
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        import diffrax
+        from typing import Unpack
+
+        from lerax_like._keywords import AbstractCartPoleKeywords, CartFrictionKeywords, CartPoleDynamicsKeywords, EndStopsKeywords, IntegratorKeywords, JointDampingKeywords, WallsKeywords
         from lerax_like._types import ScalarLike
+
+        class _Keywords(AbstractCartPoleKeywords, CartPoleDynamicsKeywords, IntegratorKeywords, JointDampingKeywords, EndStopsKeywords, WallsKeywords, CartFrictionKeywords, total=False): ...
 
         def __init__(
             self,
             *,
-            dynamics: CartPoleDynamics = ...,
-            integrator: Integrator = ...,
-            forces: tuple = (),
-            contacts: tuple = (),
-            friction: tuple = (),
-            force_mag: ScalarLike = 10.0,
-            theta_threshold_radians: ScalarLike = 0.20943951023931953,
-            x_threshold: ScalarLike = 2.4,
-            dt: ScalarLike = 0.02,
-            max_episode_steps: int | None = 500,
             action_cost: ScalarLike = 0.001,
             reward_kind: Literal['gymnasium', 'smooth'] = 'gymnasium',
-            gravity: ScalarLike = 9.8,
-            cart_mass: ScalarLike = 1.0,
-            pole_mass: ScalarLike = 0.1,
-            half_length: ScalarLike = 0.5,
-            solver: str | diffrax.AbstractSolver | Integrator = 'euler',
-            stepsize_controller: diffrax.AbstractStepSizeController | None = None,
-            max_steps: int | None = None,
-            adjoint: diffrax.AbstractAdjoint | None = None,
-            substeps: int = 1,
-            joint_damping: ScalarLike | None = None,
-            end_stop_stiffness: ScalarLike | None = None,
-            end_stop_damping: ScalarLike | None = None,
-            track_limit: ScalarLike | None = None,
-            max_events: int | None = None,
-            restitution: ScalarLike | None = None,
-            min_rebound_speed: ScalarLike | None = None,
-            cart_static_friction: ScalarLike | None = None,
-            cart_kinetic_friction: ScalarLike | None = None,
             reward: Literal['gymnasium', 'smooth'] | None = None,
+            **keywords: Unpack[_Keywords],
         ) -> None: ...
     # (end of the constructor written by python -m lerax_like._constructor_source)
 

@@ -1,4 +1,4 @@
-from typing import TYPE_CHECKING, ClassVar, final
+from typing import TYPE_CHECKING, final
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -59,14 +59,17 @@ class CompassGait(AbstractWalkerEnv):
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        import diffrax
+        from typing import Unpack
+
+        from lerax_like._keywords import CompassGaitDynamicsKeywords, HeelStrikeKeywords, IntegratorKeywords
         from lerax_like._types import ScalarLike
+
+        class _Keywords(CompassGaitDynamicsKeywords, IntegratorKeywords, HeelStrikeKeywords, total=False): ...
 
         def __init__(
             self,
             *,
             dynamics: CompassGaitDynamics = ...,
-            integrator: Integrator = ...,
             contacts: tuple = ...,
             max_torque: ScalarLike = 1.0,
             target_speed: ScalarLike = 1.0,
@@ -75,25 +78,9 @@ class CompassGait(AbstractWalkerEnv):
             fall_angle: ScalarLike = 1.5707963267948966,
             dt: ScalarLike = 0.02,
             max_episode_steps: int | None = 1000,
-            lower_length: ScalarLike = 0.5,
-            upper_length: ScalarLike = 0.5,
-            leg_mass: ScalarLike = 5.0,
-            hip_mass: ScalarLike = 10.0,
-            slope: ScalarLike = 0.05235987755982988,
-            gravity: ScalarLike = 9.81,
-            solver: str | diffrax.AbstractSolver | Integrator = 'tsit5',
-            stepsize_controller: diffrax.AbstractStepSizeController | None = None,
-            max_steps: int | None = None,
-            adjoint: diffrax.AbstractAdjoint | None = None,
-            substeps: int = 1,
-            max_events: int | None = None,
+            **keywords: Unpack[_Keywords],
         ) -> None: ...
     # (end of the constructor written by python -m lerax_like._constructor_source)
-
-    stochastic: ClassVar[bool] = False  # nothing random but the start
-    action_size: ClassVar[int] = 1
-    action_scale: ClassVar[str] = "max_torque"
-    addons: ClassVar[tuple[type, ...]] = (HeelStrike,)
 
     dynamics: CompassGaitDynamics = dynamics(CompassGaitDynamics)
     integrator: Integrator = integrator("tsit5")

@@ -73,17 +73,18 @@ class DoubleCartPole(AbstractUnitActionEnv):
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        from collections.abc import Sequence
-        import diffrax
-        from lerax_like._types import ArrayLike
+        from typing import Unpack
+
+        from lerax_like._keywords import CartChainDynamicsKeywords, CartFrictionKeywords, EndStopsKeywords, IntegratorKeywords, JointDampingKeywords, WallsKeywords
         from lerax_like._types import ScalarLike
+
+        class _Keywords(CartChainDynamicsKeywords, IntegratorKeywords, JointDampingKeywords, EndStopsKeywords, WallsKeywords, CartFrictionKeywords, total=False): ...
 
         def __init__(
             self,
             *,
             task: Literal['balance', 'swing_up'] = 'balance',
             dynamics: CartChainDynamics = ...,
-            integrator: Integrator = ...,
             forces: tuple = (),
             contacts: tuple = (),
             friction: tuple = (),
@@ -93,24 +94,7 @@ class DoubleCartPole(AbstractUnitActionEnv):
             action_cost: ScalarLike = 0.001,
             dt: ScalarLike = 0.02,
             max_episode_steps: int | None = 500,
-            cart_mass: ScalarLike = 1.0,
-            pole_masses: ArrayLike | Sequence[float] = (0.1, 0.1),
-            pole_lengths: ArrayLike | Sequence[float] = (1.0, 1.0),
-            gravity: ScalarLike = 9.81,
-            solver: str | diffrax.AbstractSolver | Integrator = 'rk4',
-            stepsize_controller: diffrax.AbstractStepSizeController | None = None,
-            max_steps: int | None = None,
-            adjoint: diffrax.AbstractAdjoint | None = None,
-            substeps: int = 1,
-            joint_damping: ScalarLike | None = None,
-            end_stop_stiffness: ScalarLike | None = None,
-            end_stop_damping: ScalarLike | None = None,
-            track_limit: ScalarLike | None = None,
-            max_events: int | None = None,
-            restitution: ScalarLike | None = None,
-            min_rebound_speed: ScalarLike | None = None,
-            cart_static_friction: ScalarLike | None = None,
-            cart_kinetic_friction: ScalarLike | None = None,
+            **keywords: Unpack[_Keywords],
         ) -> None: ...
     # (end of the constructor written by python -m lerax_like._constructor_source)
 

@@ -21,6 +21,9 @@ class AbstractMountainCar(AbstractEnv):
     """
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
+    # Declared before the fields with defaults: an AbstractVar declares no field at run time,
+    # but a type checker reads it as one without a default.
+    goal_position: eqx.AbstractVar[Scalar]
 
     dynamics: MountainCarDynamics = dynamics(MountainCarDynamics)
     integrator: Integrator = integrator("semi_implicit_euler")
@@ -29,7 +32,6 @@ class AbstractMountainCar(AbstractEnv):
     max_speed: Scalar = parameter(0.07, POSITIVE_OR_INF)
     goal_velocity: Scalar = parameter(0.0, FINITE)
     dt: Scalar = time_step(1.0)
-    goal_position: eqx.AbstractVar[Scalar]
 
     @property
     def observation_space(self) -> Box:
@@ -102,28 +104,20 @@ class MountainCar(AbstractMountainCar):
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        import diffrax
+        from typing import Unpack
+
+        from lerax_like._keywords import AbstractMountainCarKeywords, IntegratorKeywords, MountainCarDynamicsKeywords
         from lerax_like._types import ScalarLike
+
+        class _Keywords(AbstractMountainCarKeywords, MountainCarDynamicsKeywords, IntegratorKeywords, total=False): ...
 
         def __init__(
             self,
             *,
-            dynamics: MountainCarDynamics = ...,
-            integrator: Integrator = ...,
-            min_position: ScalarLike = -1.2,
-            max_position: ScalarLike = 0.6,
-            max_speed: ScalarLike = 0.07,
-            goal_velocity: ScalarLike = 0.0,
-            dt: ScalarLike = 1.0,
             force: ScalarLike = 0.001,
             goal_position: ScalarLike = 0.5,
             max_episode_steps: int | None = 200,
-            gravity: ScalarLike = 0.0025,
-            solver: str | diffrax.AbstractSolver | Integrator = 'semi_implicit_euler',
-            stepsize_controller: diffrax.AbstractStepSizeController | None = None,
-            max_steps: int | None = None,
-            adjoint: diffrax.AbstractAdjoint | None = None,
-            substeps: int = 1,
+            **keywords: Unpack[_Keywords],
         ) -> None: ...
     # (end of the constructor written by python -m lerax_like._constructor_source)
 
@@ -180,28 +174,20 @@ class MountainCarContinuous(AbstractMountainCar, AbstractUnitActionEnv):
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        import diffrax
+        from typing import Unpack
+
+        from lerax_like._keywords import AbstractMountainCarKeywords, IntegratorKeywords, MountainCarDynamicsKeywords
         from lerax_like._types import ScalarLike
+
+        class _Keywords(AbstractMountainCarKeywords, MountainCarDynamicsKeywords, IntegratorKeywords, total=False): ...
 
         def __init__(
             self,
             *,
-            dynamics: MountainCarDynamics = ...,
-            integrator: Integrator = ...,
-            min_position: ScalarLike = -1.2,
-            max_position: ScalarLike = 0.6,
-            max_speed: ScalarLike = 0.07,
-            goal_velocity: ScalarLike = 0.0,
-            dt: ScalarLike = 1.0,
             power: ScalarLike = 0.0015,
             goal_position: ScalarLike = 0.45,
             max_episode_steps: int | None = 999,
-            gravity: ScalarLike = 0.0025,
-            solver: str | diffrax.AbstractSolver | Integrator = 'semi_implicit_euler',
-            stepsize_controller: diffrax.AbstractStepSizeController | None = None,
-            max_steps: int | None = None,
-            adjoint: diffrax.AbstractAdjoint | None = None,
-            substeps: int = 1,
+            **keywords: Unpack[_Keywords],
         ) -> None: ...
     # (end of the constructor written by python -m lerax_like._constructor_source)
 

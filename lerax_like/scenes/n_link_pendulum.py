@@ -50,28 +50,22 @@ class NLinkPendulum(AbstractUnitActionEnv):
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        from collections.abc import Sequence
-        import diffrax
-        from lerax_like._types import ArrayLike
+        from typing import Unpack
+
+        from lerax_like._keywords import IntegratorKeywords, NLinkPendulumDynamicsKeywords
         from lerax_like._types import ScalarLike
+
+        class _Keywords(NLinkPendulumDynamicsKeywords, IntegratorKeywords, total=False): ...
 
         def __init__(
             self,
             *,
             dynamics: NLinkPendulumDynamics = ...,
-            integrator: Integrator = ...,
             max_torque: ScalarLike = 0.0,
             action_cost: ScalarLike = 0.001,
             dt: ScalarLike = 0.02,
             max_episode_steps: int | None = 500,
-            masses: ArrayLike | Sequence[float] = (1.0, 1.0, 1.0),
-            lengths: ArrayLike | Sequence[float] = (1.0, 1.0, 1.0),
-            gravity: ScalarLike = 9.81,
-            solver: str | diffrax.AbstractSolver | Integrator = 'rk4',
-            stepsize_controller: diffrax.AbstractStepSizeController | None = None,
-            max_steps: int | None = None,
-            adjoint: diffrax.AbstractAdjoint | None = None,
-            substeps: int = 1,
+            **keywords: Unpack[_Keywords],
         ) -> None: ...
     # (end of the constructor written by python -m lerax_like._constructor_source)
 

@@ -50,27 +50,23 @@ class Pendulum(AbstractEnv):
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        import diffrax
+        from typing import Unpack
+
+        from lerax_like._keywords import IntegratorKeywords, PendulumDynamicsKeywords
         from lerax_like._types import ScalarLike
+
+        class _Keywords(PendulumDynamicsKeywords, IntegratorKeywords, total=False): ...
 
         def __init__(
             self,
             *,
             dynamics: PendulumDynamics = ...,
-            integrator: Integrator = ...,
             max_speed: ScalarLike = 8.0,
             max_torque: ScalarLike = 2.0,
             dt: ScalarLike = 0.05,
             max_episode_steps: int | None = 200,
-            gravity: ScalarLike = 10.0,
-            mass: ScalarLike = 1.0,
-            length: ScalarLike = 1.0,
-            solver: str | diffrax.AbstractSolver | Integrator = 'semi_implicit_euler',
-            stepsize_controller: diffrax.AbstractStepSizeController | None = None,
-            max_steps: int | None = None,
-            adjoint: diffrax.AbstractAdjoint | None = None,
-            substeps: int = 1,
             g: ScalarLike | None = None,
+            **keywords: Unpack[_Keywords],
         ) -> None: ...
     # (end of the constructor written by python -m lerax_like._constructor_source)
 

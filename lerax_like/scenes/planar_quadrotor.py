@@ -50,28 +50,23 @@ class PlanarQuadrotor(AbstractUnitActionEnv):
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        import diffrax
+        from typing import Unpack
+
+        from lerax_like._keywords import IntegratorKeywords, PlanarQuadrotorDynamicsKeywords
         from lerax_like._types import ScalarLike
+
+        class _Keywords(PlanarQuadrotorDynamicsKeywords, IntegratorKeywords, total=False): ...
 
         def __init__(
             self,
             *,
             dynamics: PlanarQuadrotorDynamics = ...,
-            integrator: Integrator = ...,
             position_limit: ScalarLike = 2.0,
             theta_limit: ScalarLike = 1.5707963267948966,
             action_cost: ScalarLike = 0.25,
             dt: ScalarLike = 0.02,
             max_episode_steps: int | None = 500,
-            mass: ScalarLike = 1.0,
-            arm_length: ScalarLike = 0.25,
-            moment_of_inertia: ScalarLike = 0.01,
-            gravity: ScalarLike = 9.81,
-            solver: str | diffrax.AbstractSolver | Integrator = 'rk4',
-            stepsize_controller: diffrax.AbstractStepSizeController | None = None,
-            max_steps: int | None = None,
-            adjoint: diffrax.AbstractAdjoint | None = None,
-            substeps: int = 1,
+            **keywords: Unpack[_Keywords],
         ) -> None: ...
     # (end of the constructor written by python -m lerax_like._constructor_source)
 

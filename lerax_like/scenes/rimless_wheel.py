@@ -59,14 +59,17 @@ class RimlessWheel(AbstractUnitActionEnv):
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        import diffrax
+        from typing import Unpack
+
+        from lerax_like._keywords import IntegratorKeywords, RimlessWheelDynamicsKeywords, SpokeContactKeywords
         from lerax_like._types import ScalarLike
+
+        class _Keywords(RimlessWheelDynamicsKeywords, IntegratorKeywords, SpokeContactKeywords, total=False): ...
 
         def __init__(
             self,
             *,
             dynamics: RimlessWheelDynamics = ...,
-            integrator: Integrator = ...,
             contacts: tuple = ...,
             max_torque: ScalarLike = 1.0,
             target_speed: ScalarLike = 1.5,
@@ -74,18 +77,7 @@ class RimlessWheel(AbstractUnitActionEnv):
             action_cost: ScalarLike = 0.01,
             dt: ScalarLike = 0.05,
             max_episode_steps: int | None = 400,
-            leg_length: ScalarLike = 1.0,
-            spoke_half_angle: ScalarLike = 0.39269908169872414,
-            slope: ScalarLike = 0.08,
-            gravity: ScalarLike = 9.81,
-            mass: ScalarLike = 1.0,
-            solver: str | diffrax.AbstractSolver | Integrator = 'tsit5',
-            stepsize_controller: diffrax.AbstractStepSizeController | None = None,
-            max_steps: int | None = None,
-            adjoint: diffrax.AbstractAdjoint | None = None,
-            substeps: int = 1,
-            max_events: int | None = None,
-            min_rebound_speed: ScalarLike | None = None,
+            **keywords: Unpack[_Keywords],
         ) -> None: ...
     # (end of the constructor written by python -m lerax_like._constructor_source)
 

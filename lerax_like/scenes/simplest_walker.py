@@ -1,4 +1,4 @@
-from typing import TYPE_CHECKING, ClassVar, final
+from typing import TYPE_CHECKING, final
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -60,14 +60,17 @@ class SimplestWalker(AbstractWalkerEnv):
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        import diffrax
+        from typing import Unpack
+
+        from lerax_like._keywords import HeelStrikeKeywords, IntegratorKeywords, SimplestWalkerDynamicsKeywords
         from lerax_like._types import ScalarLike
+
+        class _Keywords(SimplestWalkerDynamicsKeywords, IntegratorKeywords, HeelStrikeKeywords, total=False): ...
 
         def __init__(
             self,
             *,
             dynamics: SimplestWalkerDynamics = ...,
-            integrator: Integrator = ...,
             contacts: tuple = ...,
             max_torque: ScalarLike = 0.01,
             target_speed: ScalarLike = 0.2,
@@ -76,20 +79,9 @@ class SimplestWalker(AbstractWalkerEnv):
             fall_angle: ScalarLike = 1.5707963267948966,
             dt: ScalarLike = 0.1,
             max_episode_steps: int | None = 1000,
-            slope: ScalarLike = 0.009,
-            solver: str | diffrax.AbstractSolver | Integrator = 'tsit5',
-            stepsize_controller: diffrax.AbstractStepSizeController | None = None,
-            max_steps: int | None = None,
-            adjoint: diffrax.AbstractAdjoint | None = None,
-            substeps: int = 1,
-            max_events: int | None = None,
+            **keywords: Unpack[_Keywords],
         ) -> None: ...
     # (end of the constructor written by python -m lerax_like._constructor_source)
-
-    stochastic: ClassVar[bool] = False  # nothing random but the start
-    action_size: ClassVar[int] = 1
-    action_scale: ClassVar[str] = "max_torque"
-    addons: ClassVar[tuple[type, ...]] = (HeelStrike,)
 
     dynamics: SimplestWalkerDynamics = dynamics(SimplestWalkerDynamics)
     integrator: Integrator = integrator("tsit5")

@@ -53,31 +53,24 @@ class SlidingBlock(AbstractUnitActionEnv):
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        import diffrax
+        from typing import Unpack
+
+        from lerax_like._keywords import IntegratorKeywords, PlaneFrictionKeywords, SlidingBlockDynamicsKeywords
         from lerax_like._types import ScalarLike
+
+        class _Keywords(SlidingBlockDynamicsKeywords, IntegratorKeywords, PlaneFrictionKeywords, total=False): ...
 
         def __init__(
             self,
             *,
             dynamics: SlidingBlockDynamics = ...,
-            integrator: Integrator = ...,
             friction: tuple = ...,
             force_mag: ScalarLike = 10.0,
             target: ScalarLike = 1.0,
             action_cost: ScalarLike = 0.001,
             dt: ScalarLike = 0.05,
             max_episode_steps: int | None = 200,
-            mass: ScalarLike = 1.0,
-            gravity: ScalarLike = 9.81,
-            incline: ScalarLike = 0.0,
-            solver: str | diffrax.AbstractSolver | Integrator = 'tsit5',
-            stepsize_controller: diffrax.AbstractStepSizeController | None = None,
-            max_steps: int | None = None,
-            adjoint: diffrax.AbstractAdjoint | None = None,
-            substeps: int = 1,
-            max_events: int | None = None,
-            static_friction: ScalarLike | None = None,
-            kinetic_friction: ScalarLike | None = None,
+            **keywords: Unpack[_Keywords],
         ) -> None: ...
     # (end of the constructor written by python -m lerax_like._constructor_source)
 

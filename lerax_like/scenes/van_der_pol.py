@@ -54,25 +54,23 @@ class VanDerPol(AbstractUnitActionEnv):
     """
 
     if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        import diffrax
+        from typing import Unpack
+
+        from lerax_like._keywords import IntegratorKeywords, VanDerPolDynamicsKeywords
         from lerax_like._types import ScalarLike
+
+        class _Keywords(VanDerPolDynamicsKeywords, IntegratorKeywords, total=False): ...
 
         def __init__(
             self,
             *,
             dynamics: VanDerPolDynamics = ...,
-            integrator: Integrator = ...,
             force_mag: ScalarLike = 1.0,
             target_amplitude: ScalarLike = 1.0,
             action_cost: ScalarLike = 0.01,
             dt: ScalarLike = 0.05,
             max_episode_steps: int | None = 200,
-            mu: ScalarLike = 1.0,
-            solver: str | diffrax.AbstractSolver | Integrator = 'tsit5',
-            stepsize_controller: diffrax.AbstractStepSizeController | None = None,
-            max_steps: int | None = None,
-            adjoint: diffrax.AbstractAdjoint | None = None,
-            substeps: int = 1,
+            **keywords: Unpack[_Keywords],
         ) -> None: ...
     # (end of the constructor written by python -m lerax_like._constructor_source)
 

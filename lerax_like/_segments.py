@@ -1,0 +1,133 @@
+"""An env step solved segment by segment, each up to its first located event: what the impact
+step (`lerax_like.hybrid`) and the stick-slip step (`lerax_like.stick_slip`) share.
+
+Each builds its vector field, event condition and what happens at an event; the solve of one
+segment (the term for the scene's solver, the step budget, the adjoint, an idle finished env of
+a batch), the scan over segments and the step's final checks are written here, once.
+"""
+
+from collections.abc import Callable
+from typing import Any, NamedTuple
+
+import diffrax
+import equinox.internal as eqxi
+import jax
+import jax.numpy as jnp
+import optimistix
+
+from ._types import Array, BoolScalar, IntScalar, Scalar, State
+from .integrate import Integrator, ProjectedODETerm, SemiImplicitEuler
+
+
+# The share of `dt` that an env which has finished its step integrates again, discarded, while
+# the other envs of a vmapped batch finish theirs (`solve_segment`): any positive share keeps
+# that solve finite; a small one keeps it to one step.
+IDLE_FRACTION = 2.0**-10
+
+
+class SegmentEnd(NamedTuple):
+    """Where a segment ended: its state and time (the inputs, for an env already at `dt`), the
+    solve's result, whether it succeeded (an event ends a segment successfully), and its
+    accepted and attempted steps (0 for an env already at `dt`)."""
+
+    y: State
+    t: Scalar
+    result: diffrax.RESULTS
+    solved: BoolScalar
+    accepted: IntScalar
+    tried: IntScalar
+
+
+def segment_solver(
+    integrator: Integrator,
+    vector_field: Callable,
+    velocity_indices: tuple[int, ...] | None,
+    condition: Callable,
+    dt: Scalar,
+    *,
+    root_finder: type[optimistix.Bisection] = optimistix.Bisection,
+    stepsize_controller: diffrax.AbstractStepSizeController | None = None,
+) -> Callable[[State, Scalar, Any], SegmentEnd]:
+    """`solve(y, t, args)`: the solve from `(t, y)` towards `dt` that stops at the first zero of
+    `condition`, located by bisection to a few machine epsilons in time, falling only.
+
+    `stepsize_controller` replaces the integrator's (the impact step's grazing guard).
+    """
+    adjoint = integrator.adjoint
+    if isinstance(adjoint, diffrax.BacksolveAdjoint):
+        raise ValueError(
+            "adjoint BacksolveAdjoint cannot differentiate through located events (diffrax refuses "
+            "events with it): use with_adjoint(env, 'checkpoint') (reverse mode) or 'forward' (jacfwd)"
+        )
+    solver = integrator.solver
+    if isinstance(solver, SemiImplicitEuler):
+        term = ProjectedODETerm(vector_field, velocity_indices=velocity_indices)
+    else:
+        term = diffrax.ODETerm(vector_field)
+    controller = integrator.stepsize_controller if stepsize_controller is None else stepsize_controller
+    dt0 = dt / integrator.substeps if isinstance(controller, diffrax.ConstantStepSize) else None
+    tolerance = 4 * float(jnp.finfo(dt.dtype).eps)
+    event = diffrax.Event(condition, root_finder=root_finder(rtol=tolerance, atol=tolerance, flip=True), direction=False)
+
+    def solve(y: State, t: Scalar, args) -> SegmentEnd:
+        done = t >= dt
+        # An env that has reached dt still runs this segment while another env of a vmapped
+        # batch has not, and diffrax's step loop runs its steps too, their results dropped by
+        # a select. Over the empty interval [dt, dt] those steps are not finite (diffrax
+        # 0.7.2's ConstantStepSize divides by its number of steps, 0 there), and in reverse
+        # mode the dropped value's zero cotangent times their infinite partial derivative is
+        # NaN: the "double where" trap, which reached the event's implicit adjoint as lineax's
+        # "non-finite input" (issue 29). So a finished env solves a short interval ending at
+        # dt instead, from its own state, and its result is dropped here: finite by
+        # construction, whatever the solver, controller and event.
+        start = jnp.where(done, dt * (1 - IDLE_FRACTION), t)
+        solution = diffrax.diffeqsolve(
+            term, solver, t0=start, t1=dt, dt0=dt0, y0=y, args=args, stepsize_controller=controller,
+            max_steps=integrator.max_steps, adjoint=adjoint, event=event, throw=False,
+        )
+        assert solution.ys is not None and solution.ts is not None  # diffeqsolve's default SaveAt(t1=True)
+        result = solution.result
+        return SegmentEnd(
+            y=jnp.where(done, y, solution.ys[-1]),
+            t=jnp.where(done, dt, solution.ts[-1]),
+            result=result,
+            solved=(result == diffrax.RESULTS.successful) | (result == diffrax.RESULTS.event_occurred),
+            accepted=jnp.where(done, 0, solution.stats["num_accepted_steps"]),
+            tried=jnp.where(done, 0, solution.stats["num_steps"]),
+        )
+
+    return solve
+
+
+def scan_segments(solve_segment: Callable[[tuple], tuple], initial: tuple, segments: int, dt: Scalar) -> tuple:
+    """Run `solve_segment` on a carry whose second entry is the time, `segments` times; the
+    segments after every env's last one are skipped whole (`unvmap_any`: over a batch)."""
+
+    def segment(carry, _):
+        done = carry[1] >= dt
+        return jax.lax.cond(eqxi.unvmap_any(~done), solve_segment, lambda carry: carry, carry), None
+
+    final, _ = jax.lax.scan(segment, initial, None, length=segments)
+    return final
+
+
+def finish_step(
+    y: State,
+    t: Scalar,
+    ok: BoolScalar,
+    steps: IntScalar,
+    rejected: IntScalar,
+    dt: Scalar,
+    projection: Callable[[State], State] | None,
+) -> tuple[State, dict[str, Array]]:
+    """The step's end state (projected, if the scene projects) and the info both steps give:
+    `solver_ok` (every segment solved, `dt` reached, all finite: events left over when the
+    budget ran out did not reach it), `solver_steps` and `solver_rejected_steps`."""
+    finite = jnp.all(jnp.isfinite(y))
+    if projection is not None:
+        y = projection(y)
+    ok = ok & (t >= dt) & finite & jnp.all(jnp.isfinite(y))
+    return y, {"solver_ok": ok, "solver_steps": steps, "solver_rejected_steps": rejected}
+
+
+__all__ = ["IDLE_FRACTION", "SegmentEnd", "finish_step", "scan_segments", "segment_solver"]
