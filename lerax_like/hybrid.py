@@ -88,7 +88,7 @@ class GrazingGuardController(GuardedPIDController):
         return keep, next_t0, next_t1, made_jump, state, result
 
 
-def _hermite_dip(g0, g1, m0, m1):
+def hermite_dip(g0, g1, m0, m1):
     """Where in `(0, 1)` the cubic Hermite `p` (values `g0`, `g1`, slopes `m0`, `m1`) is lowest, and `p` there.
 
     Only a minimum inside the step matters (`m0 < 0 < m1`): `p'(s) = a s^2 + b s + m0`.
@@ -190,7 +190,7 @@ class _Surfaces(eqx.Module):
         step = t1 - t0
         g0, rate0 = self.rates(t0, y0, args)
         g1, rate1 = self.rates(t1, y1, args)
-        s, lowest = _hermite_dip(g0, g1, step * rate0, step * rate1)
+        s, lowest = hermite_dip(g0, g1, step * rate0, step * rate1)
         hidden = ~resting & (g0 > 0) & (g1 > 0) & (rate0 < 0) & (rate1 > 0) & (lowest < 0)
         # The retried step ends at the dip's lowest point, a little past it if the lowest
         # point sits at an end, so that it shrinks.

@@ -17,6 +17,10 @@ segment, each segment in one mode of the friction add-on (`lerax_like.physics.fr
   a release, slip in the direction of the load; after `N` changes sign, `sigma` flips. At
   a step's start the mode is read off the state (`q_k_dot == 0`: at rest, if it can hold).
 
+With an adaptive controller, a trial step over which a condition dips below zero and back
+(or rises from a switch and falls back) is rejected and retried up to the dip or the peak
+(`FrictionModes.guard`, the impacts' `GrazingGuardController`), so a short lift-off is located.
+
 Every condition is read where it starts at zero or above and rises after a switch, and
 diffrax's falling-direction test (`direction=False`) never fires on such a start. A step
 that needs more than `max_events` switches, a segment that fails, or an inconsistent slip
@@ -43,7 +47,7 @@ import jax.numpy as jnp
 import optimistix
 
 from ._types import Array, Float, Input, ScalarLike, State
-from .hybrid import IDLE_FRACTION, GrazingGuardController, _hermite_dip as hermite_dip
+from .hybrid import IDLE_FRACTION, GrazingGuardController, hermite_dip
 from .integrate import GuardedPIDController, Integrator, ProjectedODETerm, SemiImplicitEuler
 from .physics import AbstractDynamics
 from .physics.contact import with_coordinates

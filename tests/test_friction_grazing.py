@@ -21,7 +21,7 @@ import pytest
 
 import lerax_like as ll
 from lerax_like.analysis.friction_reference import friction_modes, friction_reference_step
-from lerax_like.hybrid import _hermite_dip
+from lerax_like.hybrid import hermite_dip
 from lerax_like.integrate import make_integrator
 from lerax_like.stick_slip import NORMAL_FLIPS
 
@@ -33,7 +33,7 @@ def test_the_hermite_dip_is_the_lowest_point_of_the_cubic():
     s = np.linspace(0, 1, 100_001)[:, None]
     cubic = ((2 * s**3 - 3 * s**2 + 1) * g0 + (s**3 - 2 * s**2 + s) * m0 + (-2 * s**3 + 3 * s**2) * g1
              + (s**3 - s**2) * m1)
-    at, lowest = jax.vmap(_hermite_dip)(*(jnp.asarray(x) for x in (g0, g1, m0, m1)))
+    at, lowest = jax.vmap(hermite_dip)(*(jnp.asarray(x) for x in (g0, g1, m0, m1)))
     leading = 6 * g0 + 3 * m0 - 6 * g1 + 3 * m1
     assert np.any(leading < 0) and np.any(leading > 0)  # both kinds of cubic are drawn
     np.testing.assert_allclose(lowest, cubic.min(axis=0), rtol=0, atol=1e-9)
