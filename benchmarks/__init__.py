@@ -120,6 +120,10 @@ BENCHMARKS = {
         Benchmark("contact", "located walls against penalty end stops: throughput and accuracy against SciPy", (_STUDY, _PLOTS)),
         Benchmark("friction", "located stick-slip against tanh-regularised friction at matched stop distance: forward and gradient cost"),
         Benchmark(
+            "friction_bias", "the pathwise gradient's bias through friction: located stick-slip against tanh at three sharpnesses",
+            (_PLOTS,),
+        ),
+        Benchmark(
             "contact_gradient_variance", "first-order gradient bias and variance through located walls and penalty end stops",
             (_STUDY, _PLOTS),
         ),

@@ -775,6 +775,27 @@ def friction(folder, link):
     return lines
 
 
+def friction_bias(folder, link):
+    rows = _read_csv(folder, "friction_bias.csv")
+    if rows is None:
+        return []
+    table = [
+        [row["model"], _g(row["epsilon"]) if row["model"] == "tanh" else "located", _g(row["distance_relative_error"]),
+         _g(row["reverse_bias"]), _g(row["forward_bias"]), _g(row["differences_bias"]),
+         _g(row["ad_against_differences"]), row["solver_ok"]]
+        for row in rows
+    ]
+    lines = [
+        f"{rows[0]['blocks']} SlidingBlocks launched at 0.5 to 2 m/s, {rows[0]['steps']} steps of 0.05 s; largest "
+        "relative errors against the closed forms of the stop distance and of its derivative in mu_k.", "",
+    ]
+    lines += _table(["model", "epsilon", "distance error", "reverse AD bias", "forward AD bias",
+                     "differences bias", "AD against differences", "solver_ok"], table)
+    if (folder / "friction_bias.png").exists():
+        lines += [f"![friction_bias.png]({link}/friction_bias.png)", ""]
+    return lines
+
+
 SECTIONS = {
     "work_precision": work_precision,
     "gradient_error": gradient_error,
@@ -802,6 +823,7 @@ SECTIONS = {
     "contact": contact,
     "render": render,
     "friction": friction,
+    "friction_bias": friction_bias,
     "sharded_rollout": sharded_rollout,
 }
 assert set(SECTIONS) == set(BENCHMARKS), "every benchmark needs a section"

@@ -50,8 +50,11 @@ def _start(v0):
     return ll.EnvState(y=jnp.stack([jnp.zeros_like(v0), v0]), steps=jnp.zeros((), dtype=int))
 
 
-def located_distances(mu_k, speeds, steps):
+def located_distances(mu_k, speeds, steps, adjoint=None):
+    """The stop positions of the env's own (located) step; `adjoint` as `with_adjoint` takes it ("forward")."""
     env = eqx.tree_at(lambda e: e.friction[0].kinetic_friction, make_env(), mu_k)
+    if adjoint is not None:
+        env = ll.with_adjoint(env, adjoint)
 
     def one(v0):
         ys, info = ll.rollout(env, _start(v0), jnp.zeros((steps, 1)))
@@ -60,9 +63,11 @@ def located_distances(mu_k, speeds, steps):
     return jax.vmap(one)(speeds)
 
 
-def tanh_distances(mu_k, speeds, steps, epsilon):
+def tanh_distances(mu_k, speeds, steps, epsilon, integrator=None):
+    """The same blocks under `-mu_k N tanh(v / epsilon)`, integrated by `integrator` (the env's by default)."""
     env = make_env()
     block = env.dynamics
+    integrator = integrator or env.integrator
 
     def field(t, y, u):
         del u
@@ -72,7 +77,7 @@ def tanh_distances(mu_k, speeds, steps, epsilon):
 
     def one(v0):
         def step(y, _):
-            after, info = env.integrator.integrate(field, y, jnp.zeros(1, y.dtype), env.dt)
+            after, info = integrator.integrate(field, y, jnp.zeros(1, y.dtype), env.dt)
             return after, info["solver_ok"]
 
         y, ok = jax.lax.scan(step, jnp.stack([jnp.zeros_like(v0), v0]), None, length=steps)

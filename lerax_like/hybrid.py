@@ -89,21 +89,25 @@ class GrazingGuardController(GuardedPIDController):
         return keep, next_t0, next_t1, made_jump, state, result
 
 
-def _hermite_dip(g0, g1, m0, m1):
+def hermite_dip(g0, g1, m0, m1):
     """Where in `(0, 1)` the cubic Hermite `p` (values `g0`, `g1`, slopes `m0`, `m1`) is lowest, and `p` there.
 
     Only a minimum inside the step matters (`m0 < 0 < m1`): `p'(s) = a s^2 + b s + m0`.
     """
     a = 6 * g0 + 3 * m0 - 6 * g1 + 3 * m1
     b = -6 * g0 - 4 * m0 + 6 * g1 - 2 * m1
-    # The root where p' turns from negative to positive; linear when a = 0.
+    # The root where p' turns from negative to positive is (-b + sqrt(D)) / (2a) whatever the
+    # sign of a (for a < 0 the smaller root, for a > 0 the larger; a `sign(a)` here once
+    # took the wrong one for a < 0, and a dip over a step was missed). Written as
+    # 2 m0 / (-b - sqrt(D)) where b >= 0, which neither cancels nor divides by a (a = 0:
+    # -m0 / b, the linear case).
     discriminant = b**2 - 4 * a * m0
     # Safe in reverse mode: no infinite derivative of sqrt at 0 in a branch `where` drops.
     root = jnp.where(discriminant > 0, jnp.sqrt(jnp.where(discriminant > 0, discriminant, 1.0)), 0.0)
+    stable = -b - root
     safe_a = jnp.where(a == 0, 1.0, a)
-    quadratic = (-b + jnp.sign(safe_a) * root) / (2 * safe_a)
-    linear = -m0 / jnp.where(b == 0, 1.0, b)
-    s = jnp.clip(jnp.where(a == 0, linear, quadratic), 0.0, 1.0)
+    s = jnp.where(b >= 0, 2 * m0 / jnp.where(stable == 0, -1.0, stable), (-b + root) / (2 * safe_a))
+    s = jnp.clip(jnp.where((b < 0) & (a == 0), 1.0, s), 0.0, 1.0)
     h00, h10, h01, h11 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s, -2 * s**3 + 3 * s**2, s**3 - s**2
     return s, h00 * g0 + h10 * m0 + h01 * g1 + h11 * m1
 
@@ -187,7 +191,7 @@ class _Surfaces(eqx.Module):
         step = t1 - t0
         g0, rate0 = self.rates(t0, y0, args)
         g1, rate1 = self.rates(t1, y1, args)
-        s, lowest = _hermite_dip(g0, g1, step * rate0, step * rate1)
+        s, lowest = hermite_dip(g0, g1, step * rate0, step * rate1)
         hidden = ~resting & (g0 > 0) & (g1 > 0) & (rate0 < 0) & (rate1 > 0) & (lowest < 0)
         # The retried step ends at the dip's lowest point, a little past it if the lowest
         # point sits at an end, so that it shrinks.

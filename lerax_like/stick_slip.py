@@ -17,6 +17,10 @@ segment, each segment in one mode of the friction add-on (`lerax_like.physics.fr
   a release, slip in the direction of the load; after `N` changes sign, `sigma` flips. At
   a step's start the mode is read off the state (`q_k_dot == 0`: at rest, if it can hold).
 
+With an adaptive controller, a trial step over which a condition dips below zero and back
+(or rises from a switch and falls back) is rejected and retried up to the dip or the peak
+(`FrictionModes.guard`, the impacts' `GrazingGuardController`), so a short lift-off is located.
+
 Every condition is read where it starts at zero or above and rises after a switch, and
 diffrax's falling-direction test (`direction=False`) never fires on such a start. A step
 that needs more than `max_events` switches, a segment that fails, or an inconsistent slip
@@ -43,7 +47,8 @@ import optimistix
 
 from ._segments import finish_step, scan_segments, segment_solver
 from ._types import Array, Float, Input, ScalarLike, State
-from .integrate import Integrator
+from .hybrid import GrazingGuardController, hermite_dip
+from .integrate import GuardedPIDController, Integrator
 from .physics import AbstractDynamics
 from .physics.contact import with_coordinates
 from .physics.friction import AbstractCoulombFriction
@@ -152,6 +157,34 @@ class FrictionModes(eqx.Module):
         del kwargs
         return jnp.min(self.conditions(t, y, args))
 
+    def guard(self, t0, t1, y0: State, y1: State, args):
+        """The step fraction where a condition's Hermite interpolant dips below zero and back (1 if none).
+
+        A condition positive at both ends of a trial step is no event to diffrax, however far it
+        fell between (a short lift-off of the cart, a load that touches `mu_s |N|` and falls
+        back): `GrazingGuardController` rejects such a step and retries it up to the dip, where
+        the sign change shows and the switch is located. Conditions and their rates along the
+        flow at both ends give the cubic Hermite interpolant, as for the impacts' gaps.
+        """
+        step = t1 - t0
+
+        def rates(t, y):
+            t = jnp.asarray(t, y.dtype)
+            return jax.jvp(lambda t, y: self.conditions(t, y, args), (t, y), (jnp.ones_like(t), self.vector_field(t, y, args)))
+
+        (c0, rate0), (c1, rate1) = rates(t0, y0), rates(t1, y1)
+        s, lowest = hermite_dip(c0, c1, step * rate0, step * rate1)
+        hidden = (c0 > 0) & (c1 > 0) & (rate0 < 0) & (rate1 > 0) & (lowest < 0)
+        # Just after a switch its condition starts at zero, or a rounding error below: if it
+        # rises and falls back below zero within the step (a lift-off shorter than a step),
+        # no sign change shows either. The step is retried up to its peak, from where the
+        # fall is an event.
+        peak_at, negated_peak = hermite_dip(-c0, -c1, -step * rate0, -step * rate1)
+        returned = (c0 <= 0) & (c1 < 0) & (rate0 > 0) & (rate1 < 0) & (negated_peak < 0)
+        fraction = jnp.where(hidden, jnp.clip(s, 1e-3, 0.999), jnp.where(returned, jnp.clip(peak_at, 1e-3, 0.999), 1.0))
+        # A choice of step, as the controller's own: no gradient flows through it.
+        return jax.lax.stop_gradient(jnp.min(fraction))
+
     def settle(self, t, y: State, u: Input, mode, ended: Array, which: Array):
         """The next segment's state and mode, and whether its slip is consistent.
 
@@ -206,8 +239,13 @@ def integrate_with_friction(
     modes = FrictionModes(physics=physics, dynamics=dynamics, friction=friction, t0=t0)
     dtype = y0.dtype
     dt = jnp.asarray(dt, dtype=dtype)
+    controller = integrator.stepsize_controller
+    if type(controller) in (diffrax.PIDController, GuardedPIDController):
+        settings = {name: getattr(controller, name) for name in diffrax.PIDController.__dataclass_fields__}
+        controller = GrazingGuardController(**settings, guard=modes.guard)
     solve = segment_solver(
-        integrator, modes.vector_field, physics.velocity_indices, modes.condition, dt, root_finder=_TimeBisection
+        integrator, modes.vector_field, physics.velocity_indices, modes.condition, dt, root_finder=_TimeBisection,
+        stepsize_controller=controller,
     )
 
     def solve_segment(carry):

@@ -139,6 +139,7 @@ def gradient_work_precision(
     mode: Literal["reverse", "forward"] = "reverse",
     reference_rtol: float = 1e-12,
     repeats: int = 5,
+    independent: dict[str, Any] | None = None,
 ) -> tuple[list[dict[str, Any]], dict[str, Any]]:
     """Error and run time of the gradient of `loss` with respect to `where(env)`, per integrator.
 
@@ -152,7 +153,10 @@ def gradient_work_precision(
     The error is `|g - g_ref| / |g_ref|` (2-norm over all selected leaves), `NaN` where a
     solve failed. `g_ref` is computed with `reference_integrator(reference_rtol)` by
     forward mode (exact for the discrete reference solution, and its compilation is the
-    cheaper); its floor estimates its own error.
+    cheaper); its floor estimates its own error. Given an `independent` reference instead
+    (`gradient`, flattened as the selection, and its `floor`: a scene with friction takes
+    `friction_reference_gradient`'s), the errors are against it, and Dopri8's own error
+    against it is recorded as `dopri8_discrepancy`.
 
     Returns the rows, one per integrator (`label`, `controller`, `substeps`, `dt` (the
     solver's step, fixed-step rows), `env_dt`, `rtol`, `atol`, `error`, `seconds` (median
@@ -186,6 +190,11 @@ def gradient_work_precision(
         "rtol": reference_rtol,
         "floor": float(jnp.linalg.norm(g_check - g_ref) / scale),
     }
+    if independent is not None:
+        dopri8 = g_ref
+        g_ref = jnp.asarray(independent["gradient"], dopri8.dtype)
+        scale = jnp.linalg.norm(g_ref)
+        reference = {**independent, "dopri8_discrepancy": float(jnp.linalg.norm(dopri8 - g_ref) / scale)}
 
     gradient = reference_gradient if mode == "forward" else _gradient_function(loss, mode)
     rows = []
@@ -312,14 +321,27 @@ class GradientStudyConfig:
         settings: dict[str, Any] = dict(scene=scene, sweeps=default_gradient_sweeps(quick=quick))
         if quick:
             settings.update(repeats=3)
+            if scene in SCENES and getattr(make_scene(scene, **overrides.get("scene_kwargs", {})), "friction", ()):
+                # The reference through friction costs six SciPy rollouts per parameter.
+                settings.update(horizon=20)
         settings.update(overrides)
         return cls(**settings)
 
 
-def _parameter_where(parameters: tuple[str, ...] | None) -> Callable[[AbstractEnv], Any]:
+def _physical_parameters(env: AbstractEnv) -> tuple[Any, ...]:
+    """Where the physical parameters live: the dynamics, and a friction add-on's coefficients."""
+    return (env.dynamics, *getattr(env, "friction", ()))
+
+
+def _parameter_where(env: AbstractEnv, parameters: tuple[str, ...] | None) -> Callable[[AbstractEnv], Any]:
     if parameters is None:
-        return lambda env: env.dynamics
-    return lambda env: tuple(getattr(env.dynamics, name) for name in parameters)
+        return _physical_parameters if getattr(env, "friction", ()) else lambda env: env.dynamics
+    owner = {name: i for i, part in enumerate(_physical_parameters(env)) for name in _field_names(part)}
+    return lambda env: tuple(getattr(_physical_parameters(env)[owner[name]], name) for name in parameters)
+
+
+def _field_names(module) -> list[str]:
+    return [field.name for field in dataclasses.fields(module)]
 
 
 def _parameter_names(env: AbstractEnv, where: Callable[[AbstractEnv], Any], parameters) -> list[str]:
@@ -328,9 +350,13 @@ def _parameter_names(env: AbstractEnv, where: Callable[[AbstractEnv], Any], para
     for path, leaf in jax.tree_util.tree_flatten_with_path(where(env))[0]:
         if not eqx.is_inexact_array(leaf):
             continue
-        name = jax.tree_util.keystr(path).lstrip(".")
         if parameters is not None:
             name = parameters[path[0].idx]
+        elif where is _physical_parameters:
+            # `(dynamics, friction, ...)`: the field's path within its part.
+            name = jax.tree_util.keystr(path[1:]).lstrip(".")
+        else:
+            name = jax.tree_util.keystr(path).lstrip(".")
         size = int(np.size(leaf))
         names.extend([name] if size == 1 else [f"{name}[{i}]" for i in range(size)])
     return names
@@ -355,7 +381,7 @@ def run_gradient_study(config: GradientStudyConfig) -> StudyResult:
 def _run_gradient_study(config: GradientStudyConfig) -> StudyResult:
     env = make_scene(config.scene, **config.scene_kwargs)
     if config.parameters is not None:
-        fields = {field.name for field in dataclasses.fields(env.dynamics)}
+        fields = {name for part in _physical_parameters(env) for name in _field_names(part)}
         unknown = [name for name in config.parameters if name not in fields]
         if unknown:
             raise ValueError(f"{config.scene} has no physical parameters {unknown}; it has {sorted(fields)}")
@@ -371,8 +397,20 @@ def _run_gradient_study(config: GradientStudyConfig) -> StudyResult:
         if actions.shape[0] != config.horizon:
             raise ValueError(f"actions has {actions.shape[0]} steps, horizon is {config.horizon}")
     sweeps = config.sweeps or default_gradient_sweeps()
-    where = _parameter_where(config.parameters)
+    where = _parameter_where(env, config.parameters)
     settings = [(sweep, integrator) for sweep in sweeps for _, integrator in sweep.integrators()]
+    independent, solver = None, "dopri8 (diffrax), PIDController, atol = rtol / 100, forward mode"
+    floor_estimate = "|g_check - g| / |g|, g_check at 10 rtol and dtmax = dt / 4"
+    if getattr(env, "friction", ()):
+        # Through stick-slip: central differences of SciPy's event-located reference, which
+        # owes nothing to diffrax's root find or to automatic differentiation.
+        from .friction_reference import friction_reference_gradient
+
+        inputs = jax.vmap(env.physical_input)(actions)
+        independent = friction_reference_gradient(env, where, y0, inputs, config.cost)
+        solver = ("central differences (fourth order) of scipy.integrate.solve_ivp DOP853 restarted at every "
+                  "located stick-slip switch (lerax_like.analysis.friction_reference)")
+        floor_estimate = "|g(2h) - g(h)| / |g(h)|, the stencil at twice the step"
     rows, reference = gradient_work_precision(
         env,
         trajectory_loss(y0, actions, config.cost),
@@ -381,11 +419,12 @@ def _run_gradient_study(config: GradientStudyConfig) -> StudyResult:
         mode=config.mode,
         reference_rtol=config.reference_rtol,
         repeats=config.repeats,
+        independent=independent,
     )
     for (sweep, _), row in zip(settings, rows):
         row.update(
             scene=config.scene, solver=sweep.name, mode=config.mode, horizon=config.horizon,
-            reference_rtol=config.reference_rtol, reference_floor=reference["floor"],
+            reference_rtol=reference["rtol"], reference_floor=reference["floor"],
         )
     record = {
         "config": {
@@ -406,11 +445,7 @@ def _run_gradient_study(config: GradientStudyConfig) -> StudyResult:
         "initial_state": np.asarray(y0).tolist(),
         "actions": np.asarray(actions).tolist(),
         "parameter_names": _parameter_names(env, where, config.parameters),
-        "reference": {
-            "solver": "dopri8 (diffrax), PIDController, atol = rtol / 100, forward mode",
-            **reference,
-            "floor_estimate": "|g_check - g| / |g|, g_check at 10 rtol and dtmax = dt / 4",
-        },
+        "reference": {"solver": solver, **reference, "floor_estimate": floor_estimate},
         "environment": environment_record(),
     }
     return StudyResult(config=config, rows=rows, record=record)
