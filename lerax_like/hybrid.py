@@ -56,10 +56,13 @@ from .physics import AbstractDynamics
 from .physics.contact import AbstractContact, AbstractImpulseContact, MechanicalDynamics, with_coordinates
 
 
-# A surface struck again within this share of `dt` of its last impact has come to rest: the
-# bounces of a Zeno sequence are shorter than the step can resolve. A fixed-step solver can
-# reach it at a speed above `min_rebound_speed`: semi-implicit Euler pushed into a wall
-# (restitution e, push a, step h) settles on impacts at h a / (1 + e), not on ever slower ones.
+# A surface touched again within this share of `dt` of the segment start where it was last
+# touched has come to rest: the bounces of a Zeno sequence are shorter than the step can
+# resolve. A fixed-step solver reaches it where the speed rule cannot: semi-implicit Euler
+# pushed into a wall (restitution e, push a, step h) settles on impacts at h a / (1 + e), not on
+# ever slower ones; and its dense output, which blends the velocities while the positions move
+# with the new ones, can place a crossing at a state moving away from the wall (no impact), the
+# next step crossing again at once.
 ZENO_FRACTION = 2.0**-30
 
 
@@ -207,16 +210,16 @@ class _Surfaces(eqx.Module):
     def settle(self, t, y: State, u: Input, again: Bool[Array, " k"]):
         """At a segment's start `t`: impacts, rest and release, and the re-placement just off the surfaces.
 
-        `again` marks the surfaces struck at a segment start within `ZENO_FRACTION` of `dt`
-        before: struck again, they come to rest instead. Returns the state, the resting
-        surfaces and the surfaces struck. All of it is skipped when no state (of a vmapped
-        batch) touches a surface.
+        `again` marks the surfaces touched at a segment start within `ZENO_FRACTION` of `dt`
+        before: touched again, they come to rest instead of bouncing. Returns the state, the
+        resting surfaces, the surfaces struck and the surfaces touched. All of it is skipped
+        when no state (of a vmapped batch) touches a surface.
         """
         touching = self.gaps(y) <= 2 * self.offset(y)
         return jax.lax.cond(
             eqxi.unvmap_any(jnp.any(touching)),
             lambda t, y, u, again: self._settle(t, y, u, again),
-            lambda t, y, u, again: (y, jnp.zeros_like(touching), jnp.zeros_like(touching)),
+            lambda t, y, u, again: (y, jnp.zeros_like(touching), jnp.zeros_like(touching), touching),
             t, y, u, again,
         )
 
@@ -265,7 +268,7 @@ class _Surfaces(eqx.Module):
                     moved = with_coordinates(self.dynamics, y, positions=q + (offset - gap) * row / (row @ row))
                     y = jnp.where(touching[start + local], moved, y)
             start += size
-        return y, resting, jnp.stack(hits_all)
+        return y, resting, jnp.stack(hits_all), touching
 
     @property
     def mechanics(self) -> MechanicalDynamics:
@@ -311,17 +314,18 @@ def integrate_with_contacts(
     )
 
     def solve_segment(carry):
-        y, t, resting, ok, steps, rejected, impacts, first, struck, struck_at = carry
+        y, t, resting, ok, steps, rejected, impacts, first, touched, touched_at = carry
         done = t >= dt
-        again = struck & (t - struck_at <= ZENO_FRACTION * dt)
-        settled, new_resting, hit = surfaces.settle(t, y, u, again)
+        again = touched & (t - touched_at <= ZENO_FRACTION * dt)
+        settled, new_resting, hit, touching = surfaces.settle(t, y, u, again)
         y = jnp.where(done, y, settled)
         resting = jnp.where(done, resting, new_resting)
         hit = hit & ~done
         hits = jnp.sum(hit, dtype=int)
         first = jnp.where((hits > 0) & (first == jnp.inf), t, first)
-        struck_at = jnp.where(hits > 0, t, struck_at)
-        struck = jnp.where(hits > 0, hit, struck)
+        touching = touching & ~done
+        touched_at = jnp.where(jnp.any(touching), t, touched_at)
+        touched = jnp.where(jnp.any(touching), touching, touched)
         end = solve(y, t, (u, resting))
         carry = (
             end.y,
@@ -332,8 +336,8 @@ def integrate_with_contacts(
             rejected + end.tried - end.accepted,
             impacts + hits,
             first,
-            struck,
-            struck_at,
+            touched,
+            touched_at,
         )
         return carry
 

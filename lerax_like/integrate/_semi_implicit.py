@@ -59,9 +59,7 @@ class SemiImplicitEuler(diffrax.AbstractSolver):
     Unlike `diffrax.SemiImplicitEuler`, which takes a pair of terms and a pair of
     states, this solver takes one `ProjectedODETerm` on a flat state and lets the
     velocity update depend on the velocity (friction, Coriolis terms). First order, no
-    error estimate: use it with `diffrax.ConstantStepSize`. Its dense output moves the
-    positions linearly with the velocities held at `v1` (the staggered velocity that moved
-    them), so a state read inside a step, as at a located event, is consistent with the path.
+    error estimate: use it with `diffrax.ConstantStepSize`.
     """
 
     term_structure: ClassVar = diffrax.AbstractTerm
@@ -97,14 +95,7 @@ class SemiImplicitEuler(diffrax.AbstractSolver):
         y_half = project(y0.at[velocities].set(y0[velocities] + rate[velocities] * control))
         rate = terms.vf(t0, y_half, args)
         y1 = project(y_half.at[positions].set(y_half[positions] + rate[positions] * control))
-        # Within the step the positions move along a line whose slope is set by the new
-        # velocities: the velocity consistent with that path is `v1` throughout, not a blend
-        # of `v0` and `v1`. So the dense output (read where an event cuts the step) holds the
-        # velocities at `v1` and moves the positions linearly. A blend could place a located
-        # wall crossing at a state moving away from the wall, which the contact then does not
-        # treat as an impact while the next step crosses again: an endless run of events
-        # (measured with the walled cart-pole; issue 29's batched-gradient test).
-        dense_info = dict(y0=y0.at[velocities].set(y1[velocities]), y1=y1)
+        dense_info = dict(y0=y0, y1=y1)
         return y1, None, dense_info, None, diffrax.RESULTS.successful
 
     def func(self, terms, t0, y0, args):
