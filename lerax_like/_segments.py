@@ -2,12 +2,13 @@
 step (`lerax_like.hybrid`) and the stick-slip step (`lerax_like.stick_slip`) share.
 
 Each builds its vector field, event condition and what happens at an event; the solve of one
-segment (the term for the scene's solver, the step budget, the adjoint, an idle finished env of
-a batch), the scan over segments and the step's final checks are written here, once.
+segment (the term for the scene's solver, the step budget, the adjoint, the grazing guard on an
+adaptive step, an idle finished env of a batch), the scan over segments and the step's final
+checks are written here, once.
 """
 
 from collections.abc import Callable
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, final
 
 import diffrax
 import equinox.internal as eqxi
@@ -16,13 +17,62 @@ import jax.numpy as jnp
 import optimistix
 
 from ._types import Array, BoolScalar, IntScalar, Scalar, State
-from .integrate import Integrator, ProjectedODETerm, SemiImplicitEuler
+from .integrate import GuardedPIDController, Integrator, ProjectedODETerm, SemiImplicitEuler
 
 
 # The share of `dt` that an env which has finished its step integrates again, discarded, while
 # the other envs of a vmapped batch finish theirs (`solve_segment`): any positive share keeps
 # that solve finite; a small one keeps it to one step.
 IDLE_FRACTION = 2.0**-10
+
+
+@final
+class GrazingGuardController(GuardedPIDController):
+    """A `PIDController` that also rejects a trial step over which a gap dips below zero and back.
+
+    `guard(t0, t1, y0, y1, args)` says where, as a fraction of the step, the cubic Hermite
+    interpolant of some gap dips below zero with both ends above it (1 where none does);
+    the step is then retried up to there, where the event's sign change shows.
+    """
+
+    guard: Callable | None = None
+
+    def adapt_step_size(self, t0, t1, y0, y1_candidate, args, y_error, error_order, controller_state):
+        keep, next_t0, next_t1, made_jump, state, result = super().adapt_step_size(
+            t0, t1, y0, y1_candidate, args, y_error, error_order, controller_state
+        )
+        if self.guard is None:
+            raise TypeError("GrazingGuardController needs its guard")
+        fraction = self.guard(t0, t1, y0, y1_candidate, args)
+        dip = fraction < 1
+        keep = keep & ~dip
+        next_t0 = jnp.where(dip, t0, next_t0)
+        next_t1 = jnp.where(dip, t0 + fraction * (t1 - t0), next_t1)
+        state = jax.tree.map(lambda new, old: jnp.where(dip, old, new), state, controller_state)
+        return keep, next_t0, next_t1, made_jump, state, result
+
+
+def hermite_dip(g0, g1, m0, m1):
+    """Where in `(0, 1)` the cubic Hermite `p` (values `g0`, `g1`, slopes `m0`, `m1`) is lowest, and `p` there.
+
+    Only a minimum inside the step matters (`m0 < 0 < m1`): `p'(s) = a s^2 + b s + m0`.
+    """
+    a = 6 * g0 + 3 * m0 - 6 * g1 + 3 * m1
+    b = -6 * g0 - 4 * m0 + 6 * g1 - 2 * m1
+    # The root where p' turns from negative to positive is (-b + sqrt(D)) / (2a) whatever the
+    # sign of a (for a < 0 the smaller root, for a > 0 the larger; a `sign(a)` here once
+    # took the wrong one for a < 0, and a dip over a step was missed). Written as
+    # 2 m0 / (-b - sqrt(D)) where b >= 0, which neither cancels nor divides by a (a = 0:
+    # -m0 / b, the linear case).
+    discriminant = b**2 - 4 * a * m0
+    # Safe in reverse mode: no infinite derivative of sqrt at 0 in a branch `where` drops.
+    root = jnp.where(discriminant > 0, jnp.sqrt(jnp.where(discriminant > 0, discriminant, 1.0)), 0.0)
+    stable = -b - root
+    safe_a = jnp.where(a == 0, 1.0, a)
+    s = jnp.where(b >= 0, 2 * m0 / jnp.where(stable == 0, -1.0, stable), (-b + root) / (2 * safe_a))
+    s = jnp.clip(jnp.where((b < 0) & (a == 0), 1.0, s), 0.0, 1.0)
+    h00, h10, h01, h11 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s, -2 * s**3 + 3 * s**2, s**3 - s**2
+    return s, h00 * g0 + h10 * m0 + h01 * g1 + h11 * m1
 
 
 class SegmentEnd(NamedTuple):
@@ -43,15 +93,16 @@ def segment_solver(
     vector_field: Callable,
     velocity_indices: tuple[int, ...] | None,
     condition: Callable,
+    guard: Callable,
     dt: Scalar,
     *,
     root_finder: type[optimistix.Bisection] = optimistix.Bisection,
-    stepsize_controller: diffrax.AbstractStepSizeController | None = None,
 ) -> Callable[[State, Scalar, Any], SegmentEnd]:
     """`solve(y, t, args)`: the solve from `(t, y)` towards `dt` that stops at the first zero of
     `condition`, located by bisection to a few machine epsilons in time, falling only.
 
-    `stepsize_controller` replaces the integrator's (the impact step's grazing guard).
+    An adaptive step of the integrator's `PIDController` is also checked by `guard`
+    (`GrazingGuardController`), so that a short dip of a condition within a step is located.
     """
     adjoint = integrator.adjoint
     if isinstance(adjoint, diffrax.BacksolveAdjoint):
@@ -64,7 +115,10 @@ def segment_solver(
         term = ProjectedODETerm(vector_field, velocity_indices=velocity_indices)
     else:
         term = diffrax.ODETerm(vector_field)
-    controller = integrator.stepsize_controller if stepsize_controller is None else stepsize_controller
+    controller = integrator.stepsize_controller
+    if type(controller) in (diffrax.PIDController, GuardedPIDController):
+        settings = {name: getattr(controller, name) for name in diffrax.PIDController.__dataclass_fields__}
+        controller = GrazingGuardController(**settings, guard=guard)
     dt0 = dt / integrator.substeps if isinstance(controller, diffrax.ConstantStepSize) else None
     tolerance = 4 * float(jnp.finfo(dt.dtype).eps)
     event = diffrax.Event(condition, root_finder=root_finder(rtol=tolerance, atol=tolerance, flip=True), direction=False)
@@ -130,4 +184,12 @@ def finish_step(
     return y, {"solver_ok": ok, "solver_steps": steps, "solver_rejected_steps": rejected}
 
 
-__all__ = ["IDLE_FRACTION", "SegmentEnd", "finish_step", "scan_segments", "segment_solver"]
+__all__ = [
+    "IDLE_FRACTION",
+    "GrazingGuardController",
+    "SegmentEnd",
+    "finish_step",
+    "hermite_dip",
+    "scan_segments",
+    "segment_solver",
+]

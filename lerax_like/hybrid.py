@@ -43,15 +43,14 @@ within the step, `inf` when none).
 from collections.abc import Callable, Sequence
 from typing import final
 
-import diffrax
 import equinox as eqx
 import equinox.internal as eqxi
 import jax
 import jax.numpy as jnp
 
-from ._segments import finish_step, scan_segments, segment_solver
+from ._segments import GrazingGuardController, finish_step, hermite_dip, scan_segments, segment_solver
 from ._types import Array, Bool, Float, Input, ScalarLike, State
-from .integrate import GuardedPIDController, Integrator
+from .integrate import Integrator
 from .physics import AbstractDynamics
 from .physics.contact import AbstractContact, AbstractImpulseContact, MechanicalDynamics, with_coordinates
 
@@ -64,55 +63,6 @@ from .physics.contact import AbstractContact, AbstractImpulseContact, Mechanical
 # with the new ones, can place a crossing at a state moving away from the wall (no impact), the
 # next step crossing again at once.
 ZENO_FRACTION = 2.0**-30
-
-
-@final
-class GrazingGuardController(GuardedPIDController):
-    """A `PIDController` that also rejects a trial step over which a gap dips below zero and back.
-
-    `guard(t0, t1, y0, y1, args)` says where, as a fraction of the step, the cubic Hermite
-    interpolant of some gap dips below zero with both ends above it (1 where none does);
-    the step is then retried up to there, where the event's sign change shows.
-    """
-
-    guard: Callable | None = None
-
-    def adapt_step_size(self, t0, t1, y0, y1_candidate, args, y_error, error_order, controller_state):
-        keep, next_t0, next_t1, made_jump, state, result = super().adapt_step_size(
-            t0, t1, y0, y1_candidate, args, y_error, error_order, controller_state
-        )
-        if self.guard is None:
-            raise TypeError("GrazingGuardController needs its guard")
-        fraction = self.guard(t0, t1, y0, y1_candidate, args)
-        dip = fraction < 1
-        keep = keep & ~dip
-        next_t0 = jnp.where(dip, t0, next_t0)
-        next_t1 = jnp.where(dip, t0 + fraction * (t1 - t0), next_t1)
-        state = jax.tree.map(lambda new, old: jnp.where(dip, old, new), state, controller_state)
-        return keep, next_t0, next_t1, made_jump, state, result
-
-
-def hermite_dip(g0, g1, m0, m1):
-    """Where in `(0, 1)` the cubic Hermite `p` (values `g0`, `g1`, slopes `m0`, `m1`) is lowest, and `p` there.
-
-    Only a minimum inside the step matters (`m0 < 0 < m1`): `p'(s) = a s^2 + b s + m0`.
-    """
-    a = 6 * g0 + 3 * m0 - 6 * g1 + 3 * m1
-    b = -6 * g0 - 4 * m0 + 6 * g1 - 2 * m1
-    # The root where p' turns from negative to positive is (-b + sqrt(D)) / (2a) whatever the
-    # sign of a (for a < 0 the smaller root, for a > 0 the larger; a `sign(a)` here once
-    # took the wrong one for a < 0, and a dip over a step was missed). Written as
-    # 2 m0 / (-b - sqrt(D)) where b >= 0, which neither cancels nor divides by a (a = 0:
-    # -m0 / b, the linear case).
-    discriminant = b**2 - 4 * a * m0
-    # Safe in reverse mode: no infinite derivative of sqrt at 0 in a branch `where` drops.
-    root = jnp.where(discriminant > 0, jnp.sqrt(jnp.where(discriminant > 0, discriminant, 1.0)), 0.0)
-    stable = -b - root
-    safe_a = jnp.where(a == 0, 1.0, a)
-    s = jnp.where(b >= 0, 2 * m0 / jnp.where(stable == 0, -1.0, stable), (-b + root) / (2 * safe_a))
-    s = jnp.clip(jnp.where((b < 0) & (a == 0), 1.0, s), 0.0, 1.0)
-    h00, h10, h01, h11 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s, -2 * s**3 + 3 * s**2, s**3 - s**2
-    return s, h00 * g0 + h10 * m0 + h01 * g1 + h11 * m1
 
 
 @final
@@ -305,13 +255,7 @@ def integrate_with_contacts(
     dtype = y0.dtype
     dt = jnp.asarray(dt, dtype=dtype)
     surfaces = _Surfaces(physics=physics, dynamics=dynamics, contacts=tuple(contacts), t0=jnp.asarray(t0, dtype=dtype))
-    controller = integrator.stepsize_controller
-    if type(controller) in (diffrax.PIDController, GuardedPIDController):
-        settings = {name: getattr(controller, name) for name in diffrax.PIDController.__dataclass_fields__}
-        controller = GrazingGuardController(**settings, guard=surfaces.guard)
-    solve = segment_solver(
-        integrator, surfaces.vector_field, physics.velocity_indices, surfaces.condition, dt, stepsize_controller=controller
-    )
+    solve = segment_solver(integrator, surfaces.vector_field, physics.velocity_indices, surfaces.condition, surfaces.guard, dt)
 
     def solve_segment(carry):
         y, t, resting, ok, steps, rejected, impacts, first, touched, touched_at = carry

@@ -45,10 +45,9 @@ import jax
 import jax.numpy as jnp
 import optimistix
 
-from ._segments import finish_step, scan_segments, segment_solver
+from ._segments import finish_step, hermite_dip, scan_segments, segment_solver
 from ._types import Array, Float, Input, ScalarLike, State
-from .hybrid import GrazingGuardController, hermite_dip
-from .integrate import GuardedPIDController, Integrator
+from .integrate import Integrator
 from .physics import AbstractDynamics
 from .physics.contact import with_coordinates
 from .physics.friction import AbstractCoulombFriction
@@ -239,13 +238,9 @@ def integrate_with_friction(
     modes = FrictionModes(physics=physics, dynamics=dynamics, friction=friction, t0=t0)
     dtype = y0.dtype
     dt = jnp.asarray(dt, dtype=dtype)
-    controller = integrator.stepsize_controller
-    if type(controller) in (diffrax.PIDController, GuardedPIDController):
-        settings = {name: getattr(controller, name) for name in diffrax.PIDController.__dataclass_fields__}
-        controller = GrazingGuardController(**settings, guard=modes.guard)
     solve = segment_solver(
-        integrator, modes.vector_field, physics.velocity_indices, modes.condition, dt, root_finder=_TimeBisection,
-        stepsize_controller=controller,
+        integrator, modes.vector_field, physics.velocity_indices, modes.condition, modes.guard, dt,
+        root_finder=_TimeBisection,
     )
 
     def solve_segment(carry):

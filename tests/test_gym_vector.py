@@ -6,6 +6,7 @@ failed step must come out the same either way.
 """
 
 import copy
+import warnings
 
 import gymnasium
 import numpy as np
@@ -67,6 +68,20 @@ def test_float32_vector_env_follows_float64(env_id):
         assert reward64.dtype == np.float64
         np.testing.assert_allclose(observation32, observation64, rtol=1e-4, atol=1e-5)
         np.testing.assert_allclose(reward32, reward64, rtol=1e-4, atol=1e-5)
+
+
+def test_a_float32_vector_env_asks_jax_for_no_dtype_it_cannot_hold():
+    # The scene is built in float64, so its time limit is an int64 leaf; a float32 layer that
+    # cast it back to int64 made JAX warn and truncate to int32 at every trace. Warnings come
+    # at trace time only: `substeps=7` is a configuration no other test compiles, so the
+    # construction (which compiles) and the steps trace here, whatever ran before.
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        vector = _vector("lerax_like/CartPole-v1", 2, dtype="float32", substeps=7, max_episode_steps=3)
+        vector.reset(seed=0)
+        for _ in range(4):  # past the time limit: the autoreset's restart traces too
+            observation, reward, *_ = vector.step(np.array([0, 1]))
+    assert observation.dtype == np.float32 and reward.dtype == np.float32
 
 
 def test_bad_dtype_is_refused_by_name():

@@ -111,8 +111,13 @@ class SplitScene:
         leaves, treedef = jax.tree.flatten(params)
         with precision(self.dtype):
             real = jnp.dtype(self.dtype)
+            # An integer leaf (the time limit) built in float64 is int64, which a float32 scope
+            # cannot hold: its dtype there is the scope's own (int32), which JAX would truncate
+            # it to anyway, with a warning on every trace.
+            canonical = jax.dtypes.canonicalize_dtype
             layout = tuple(
-                (leaf.shape, real if jnp.issubdtype(leaf.dtype, jnp.floating) else leaf.dtype) for leaf in leaves
+                (leaf.shape, real if jnp.issubdtype(leaf.dtype, jnp.floating) else canonical(leaf.dtype))
+                for leaf in leaves
             )
             flat = [jnp.ravel(leaf).astype(real) for leaf in leaves]
             self.parameters = jnp.concatenate([*flat, jnp.zeros(0, real)])

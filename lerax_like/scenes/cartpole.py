@@ -16,6 +16,9 @@ from ._unit_action import AbstractUnitActionEnv
 
 
 _TWELVE_DEGREES = 12 * 2 * math.pi / 360
+# The add-ons of a cart on a rail, whatever it carries (`DoubleCartPole` takes them too): the
+# joints' damping, the track's soft end stops or rigid walls, the rail's dry friction.
+CART_ADDONS: tuple[type, ...] = (JointDamping, EndStops, Walls, CartFriction)
 
 
 class AbstractCartPole(AbstractEnv):
@@ -26,7 +29,7 @@ class AbstractCartPole(AbstractEnv):
     """
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
-    addons: ClassVar[tuple[type, ...]] = (JointDamping, EndStops, Walls, CartFriction)
+    addons: ClassVar[tuple[type, ...]] = CART_ADDONS
 
     dynamics: CartPoleDynamics = dynamics(CartPoleDynamics)
     integrator: Integrator = integrator("euler")

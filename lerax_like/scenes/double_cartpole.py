@@ -8,10 +8,8 @@ from .._types import Array, BoolScalar, Key, Scalar
 from ..env import EnvState, dynamics, episode_limit, integrator, time_step
 from ..integrate import Integrator
 from ..physics.chain import CartChainDynamics
-from ..physics.contact import Walls
-from ..physics.forces import EndStops, JointDamping
-from ..physics.friction import CartFriction
 from ._unit_action import AbstractUnitActionEnv
+from .cartpole import CART_ADDONS
 
 
 def _track_default(values) -> float:
@@ -99,7 +97,7 @@ class DoubleCartPole(AbstractUnitActionEnv):
     # (end of the constructor written by python -m lerax_like._constructor_source)
 
     stochastic: ClassVar[bool] = False  # nothing random but the start
-    addons: ClassVar[tuple[type, ...]] = (JointDamping, EndStops, Walls, CartFriction)
+    addons: ClassVar[tuple[type, ...]] = CART_ADDONS
     action_size: ClassVar[int] = 1
     action_scale: ClassVar[str] = "force_mag"
 
