@@ -14,14 +14,12 @@ progress bar): `pip install 'lerax_like[study]'`.
 """
 
 from .convergence import convergence_orders as convergence_orders, fit_order as fit_order
-from .gradcheck import GradCheckReport as GradCheckReport, LeafCheck as LeafCheck, gradcheck as gradcheck
 from .gradient_accuracy import (
     GradientStudyConfig as GradientStudyConfig,
     default_gradient_sweeps as default_gradient_sweeps,
     gradient_scenes as gradient_scenes,
     gradient_work_precision as gradient_work_precision,
     run_gradient_study as run_gradient_study,
-    sensitivity_signs as sensitivity_signs,
 )
 from .reference import (
     dense_reference_trajectories as dense_reference_trajectories,
@@ -61,3 +59,8 @@ from .study import (
     run_study as run_study,
     sweeps_for as sweeps_for,
 )
+
+from .._module_attributes import moved_names as _moved_names
+
+# The gradient tools moved to `lerax_like.gradients`; the old imports work and warn.
+__getattr__ = _moved_names(__name__, "lerax_like.gradients", ("GradCheckReport", "LeafCheck", "gradcheck", "sensitivity_signs"))

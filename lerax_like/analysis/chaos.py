@@ -1,5 +1,4 @@
-"""How fast a rollout's gradient grows and loses precision: Lyapunov exponents, float32 against
-float64, and the horizon where the first-order estimator's variance overtakes the zeroth-order one's.
+"""How fast a rollout's gradient loses precision: float32 against float64, and the horizon where the first-order estimator's variance overtakes the zeroth-order one's.
 """
 
 import math
@@ -10,41 +9,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._types import Array, Float
+from .._types import Array
 from ..env import AbstractEnv
-from .rollout_cost import build_env, initial_state, nominal_parameters, objective, policy_action, stage_costs, step_state
-
-
-def finite_time_lyapunov(
-    env: AbstractEnv, y0: Array, kind: str, theta: Array, horizon: int
-) -> Float[Array, "H n"]:
-    """Finite-time Lyapunov exponents (1/s) of the closed-loop step map along the nominal
-    trajectory, after each of `horizon` steps: row `k` holds the `n` exponents over
-    `k + 1` steps.
-
-    The tangent map `J_k = d y_{k+1} / d y_k` (the policy's feedback included) is
-    propagated with QR renormalisation (Benettin et al., 1980): `J_k Q_k = Q_{k+1}
-    R_{k+1}`, and the exponents are the running sums of `log |diag R|` over elapsed time.
-    """
-    n = y0.shape[0]
-
-    def step(y, k):
-        action = policy_action(kind, theta, y, k)
-        return step_state(env, y, jnp.reshape(action, env.action_space.shape))[0]
-
-    def body(carry, k):
-        y, Q, logs = carry
-        J = jax.jacrev(step)(y, k)  # reverse: forward mode cannot pass an adaptive solve's custom VJP
-        Q, R = jnp.linalg.qr(J @ Q)
-        signs = jnp.sign(jnp.diag(R))
-        Q = Q * jnp.where(signs == 0, 1.0, signs)
-        logs = logs + jnp.log(jnp.abs(jnp.diag(R)))
-        return (step(y, k), Q, logs), logs
-
-    eye = jnp.eye(n, dtype=y0.dtype)
-    _, logs = jax.jit(lambda: jax.lax.scan(body, (y0, eye, jnp.zeros((n,), y0.dtype)), jnp.arange(horizon)))()
-    elapsed = env.dt * jnp.arange(1, horizon + 1, dtype=y0.dtype)
-    return logs / elapsed[:, None]
+from .rollout_cost import build_env, initial_state, nominal_parameters, objective, stage_costs
 
 
 def truncated_gradients(env: AbstractEnv, y0: Array, kind: str, theta: Array, horizon: int, config) -> np.ndarray:

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from .gradient_estimators import ESTIMATORS
+from ..gradients import ESTIMATORS
 from .recording import finish_figure, pyplot, save_figure
 from .verdict import group_settings, timing_unresolved
 

@@ -49,19 +49,19 @@ import numpy as np
 from .._fields import check_count
 from ..integrate import SOLVERS
 from ..scenes import SCENES
-from .chaos import (
-    finite_time_lyapunov as finite_time_lyapunov,
-    precision_at_horizons as precision_at_horizons,
-    precision_loss as precision_loss,
-    truncated_gradients as truncated_gradients,
-    variance_crossover as variance_crossover,
-)
-from .gradient_estimators import (
+from ..gradients import (
     ESTIMATORS as ESTIMATORS,
     Evaluators as Evaluators,
     alpha_weight as alpha_weight,
     estimate_gradients as estimate_gradients,
+    finite_time_lyapunov as finite_time_lyapunov,
     per_sample_statistics as per_sample_statistics,
+)
+from .chaos import (
+    precision_at_horizons as precision_at_horizons,
+    precision_loss as precision_loss,
+    truncated_gradients as truncated_gradients,
+    variance_crossover as variance_crossover,
 )
 from .figures import plot_gradient_variance as plot_gradient_variance
 from .recording import environment_record, write_csv, write_record
@@ -70,6 +70,7 @@ from .rollout_cost import (
     action_size as action_size,
     active_parameters as active_parameters,
     build_env as build_env,
+    closed_loop_step as closed_loop_step,
     initial_state as initial_state,
     lqr_gain as lqr_gain,
     nominal_gain as nominal_gain,
@@ -282,7 +283,8 @@ def run_gradient_variance(config: GradientVarianceConfig, *, progress: Callable[
                 exponents = None
                 if config.lyapunov:
                     theta = nominal_parameters(env64, kind, longest, jnp.asarray(gain))
-                    exponents = np.asarray(finite_time_lyapunov(env64, initial_state(env64, config), kind, theta, longest))
+                    step = closed_loop_step(env64, kind, theta)
+                    exponents = np.asarray(finite_time_lyapunov(step, initial_state(env64, config), longest, env64.dt))
                     record["lyapunov"].append({
                         "solver": solver, "policy": kind,
                         "leading_exponent": np.max(exponents, axis=1).tolist(),

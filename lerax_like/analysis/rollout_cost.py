@@ -79,6 +79,16 @@ def step_state(env: AbstractEnv, y: Array, action: Array) -> tuple[Array, BoolSc
     return next_state.y, info["solver_ok"]
 
 
+def closed_loop_step(env: AbstractEnv, kind: str, theta: Array) -> Callable[[Array, Any], Array]:
+    """`(y, k) -> y_{k+1}`: one env step under policy `kind` with parameters `theta`, no termination."""
+
+    def step(y, k):
+        action = policy_action(kind, theta, y, k)
+        return step_state(env, y, jnp.reshape(action, env.action_space.shape))[0]
+
+    return step
+
+
 def stage_costs(
     env: AbstractEnv, y0: Array, kind: str, steps: int, state_weight: float, action_weight: float
 ) -> Callable[[Array, Any], tuple[Float[Array, " steps"], BoolScalar]]:
