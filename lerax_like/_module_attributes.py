@@ -22,14 +22,16 @@ def deprecated_names(module: str, names: dict[str, tuple[str, Callable[[], Any]]
     return __getattr__
 
 
-def moved_names(module: str, new_module: str, names: "tuple[str, ...]") -> Callable[[str], Any]:
-    """A module `__getattr__` for `module`, whose `names` now live in `new_module`: each old
-    import works and warns (a `DeprecationWarning` naming the new place)."""
+def moved_names(module: str, places: dict[str, tuple[str, ...]]) -> Callable[[str], Any]:
+    """A module `__getattr__` for `module`, whose names moved: `places` maps each new module to
+    the names that now live in it. Each old import works and warns (a `DeprecationWarning`
+    naming the new place)."""
 
-    def lookup(name: str) -> Callable[[], Any]:
+    def lookup(new_module: str, name: str) -> Callable[[], Any]:
         return lambda: getattr(importlib.import_module(new_module), name)
 
-    return deprecated_names(module, {name: (f"{new_module}.{name}", lookup(name)) for name in names})
+    moved = {name: new_module for new_module, names in places.items() for name in names}
+    return deprecated_names(module, {name: (f"{new}.{name}", lookup(new, name)) for name, new in moved.items()})
 
 
 def generated_names(module: str, classes: Mapping[str, type]) -> Callable[[str], type]:

@@ -1,6 +1,6 @@
 """The figures of the work-precision studies: of the solutions and of their gradients.
 
-Drawn from a study's rows alone (as read back by `report.read_csv` too), with matplotlib,
+Drawn from a study's rows alone (as read back by `study.read_csv` too), with matplotlib,
 an optional dependency (`recording.pyplot` raises with the install hint).
 """
 

@@ -14,6 +14,7 @@ sign along a trajectory.
 
 import dataclasses
 import math
+import os
 import time
 from collections.abc import Callable, Sequence
 from typing import Any, Literal
@@ -31,8 +32,22 @@ from .._types import Array, BoolScalar, Float, Scalar, State
 from ..env import AbstractEnv, EnvState, rollout
 from ..gradients import reference_integrator, selection_spec, with_adjoint, with_integrator
 from ..integrate import Integrator, describe_solver
+from .convergence import convergence_orders
+from .figures import plot_gradient_work_precision
+from .recording import PLOT_HINT, environment_record, matplotlib_available, write_record
+from .recording import write_csv as write_rows
 from .scenes import SCENES, make_scene
-from .study import SolverSweep, StudyResult, environment_record, tolerance_pairs
+from .sweeps import SolverSweep, tolerance_pairs
+
+
+GRADIENT_CSV_COLUMNS = (
+    "scene", "solver", "label", "controller", "dt", "env_dt", "substeps", "rtol", "atol", "error", "seconds",
+    "solver_ok", "mode", "horizon", "reference_rtol", "reference_floor",
+)
+"""One row per solver setting of a gradient study. `error` is the relative 2-norm error of
+the gradient against the reference; `seconds` the median time of one gradient; `dt` the
+solver's step (fixed-step rows); `reference_floor` the reference's own relative error
+estimate. The gradients themselves are in the JSON."""
 
 
 Loss = Callable[[AbstractEnv], tuple[Scalar, BoolScalar]]
@@ -337,7 +352,29 @@ def _describe(function: Callable) -> str:
     return f"{function.__name__}: {doc.splitlines()[0]}" if doc else function.__name__
 
 
-def run_gradient_study(config: GradientStudyConfig) -> StudyResult:
+@dataclasses.dataclass
+class GradientStudyResult:
+    """The rows of a gradient study (one per solver setting; see `gradient_work_precision`),
+    its `record` (configuration, rollout, reference, environment) and its `config`.
+
+    `write` writes its files; `convergence_orders` fits the order of the gradient error per
+    fixed-step solver.
+    """
+
+    config: GradientStudyConfig
+    rows: list[dict[str, Any]]
+    record: dict[str, Any]
+
+    def convergence_orders(self) -> list[dict[str, Any]]:
+        """Fitted slopes of log gradient error on log step size, per fixed-step solver."""
+        return convergence_orders(self.rows, ceiling=self.config.fit_ceiling)
+
+    def write(self, out: "str | os.PathLike", **options) -> dict[str, str]:
+        """`write_gradient_study(self, out, **options)`: the CSV, the JSON record and the figure."""
+        return write_gradient_study(self, out, **options)
+
+
+def run_gradient_study(config: GradientStudyConfig) -> GradientStudyResult:
     """Run `config` (in float64) and return its rows, one per solver setting.
 
     See `gradient_work_precision` for what a row holds; `result.convergence_orders()`
@@ -347,7 +384,7 @@ def run_gradient_study(config: GradientStudyConfig) -> StudyResult:
         return _run_gradient_study(config)
 
 
-def _run_gradient_study(config: GradientStudyConfig) -> StudyResult:
+def _run_gradient_study(config: GradientStudyConfig) -> GradientStudyResult:
     env = make_scene(config.scene, **config.scene_kwargs)
     if config.parameters is not None:
         fields = {name for part in _physical_parameters(env) for name in _field_names(part)}
@@ -417,9 +454,36 @@ def _run_gradient_study(config: GradientStudyConfig) -> StudyResult:
         "reference": {"solver": solver, **reference, "floor_estimate": floor_estimate},
         "environment": environment_record(),
     }
-    return StudyResult(config=config, rows=rows, record=record)
+    return GradientStudyResult(config=config, rows=rows, record=record)
 
+
+
+
+def write_gradient_study(
+    result: "GradientStudyResult", out: str | os.PathLike, *, plot: bool = True, stem: str | None = None,
+    signs: dict[str, Any] | None = None, **extra,
+) -> dict[str, str]:
+    """Write a gradient study's `<stem>.csv`, `<stem>.json` and (if `plot`) `<stem>.png` into `out`,
+    all through `recording`, the one writer.
+
+    `result` is what `run_gradient_study` returns; `stem` defaults to `<scene>_gradients`;
+    `signs` (from `sensitivity_signs`) goes into the JSON and the plot, `extra` into the JSON.
+    """
+    os.makedirs(out, exist_ok=True)
+    stem = os.path.join(out, stem or f"{result.config.scene}_gradients")
+    paths = {"csv": stem + ".csv", "json": stem + ".json"}
+    write_rows(result.rows, paths["csv"], columns=GRADIENT_CSV_COLUMNS)
+    record = {**result.record, "rows": result.rows, "convergence_orders": result.convergence_orders()}
+    if signs is not None:
+        record["wrong_sign"] = signs
+    if plot and matplotlib_available():
+        paths["png"] = stem + ".png"
+        plot_gradient_work_precision(result.rows, paths["png"], signs=signs)
+    elif plot:
+        record["figure"] = {"skipped": f"matplotlib is not installed: {PLOT_HINT}"}
+    write_record({**record, **extra}, paths["json"])
+    return paths
 
 
 # The sensitivities are gradient tools, in `lerax_like.gradients` now.
-__getattr__ = moved_names(__name__, "lerax_like.gradients", ("sensitivity_signs", "trajectory_sensitivity"))
+__getattr__ = moved_names(__name__, {"lerax_like.gradients": ("sensitivity_signs", "trajectory_sensitivity")})

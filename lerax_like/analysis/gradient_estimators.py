@@ -4,8 +4,6 @@ reference); the old imports work and warn."""
 from .._module_attributes import moved_names
 
 
-__getattr__ = moved_names(
-    __name__,
-    "lerax_like.gradients",
-    ("ESTIMATORS", "Evaluators", "alpha_weight", "estimate_gradients", "per_sample_statistics"),
-)
+__getattr__ = moved_names(__name__, {
+    "lerax_like.gradients": ("ESTIMATORS", "Evaluators", "alpha_weight", "estimate_gradients", "per_sample_statistics"),
+})
