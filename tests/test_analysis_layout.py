@@ -88,3 +88,17 @@ def test_our_own_modules_import_with_no_deprecation_warning():
         "lerax_like.analysis.gradient_variance, lerax_like.analysis.study, lerax_like.analysis.tables"
     )
     subprocess.run([sys.executable, "-W", "error::DeprecationWarning", "-c", code], check=True)
+
+
+def test_the_old_gradcheck_module_does_not_shadow_the_function():
+    # `lerax_like.analysis.gradcheck` is both the old module and the old name of the function: an
+    # import of the module first must leave the name the function (a fresh interpreter: the order
+    # of imports is the point).
+    code = (
+        "import lerax_like.analysis.gradcheck\n"
+        "from lerax_like.analysis import gradcheck\n"
+        "from lerax_like.analysis.gradcheck import gradcheck as from_module\n"
+        "import lerax_like.gradients\n"
+        "assert gradcheck is from_module is lerax_like.gradients.gradcheck, gradcheck\n"
+    )
+    subprocess.run([sys.executable, "-W", "ignore::DeprecationWarning", "-c", code], check=True)
