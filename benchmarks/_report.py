@@ -15,8 +15,8 @@ import pathlib
 
 from benchmarks import BENCHMARKS, HERE, results_dir
 from lerax_like.analysis.recording import read_csv_rows
-from lerax_like.analysis.report import VERDICT_TARGETS, cheapest_at, read_csv
-from lerax_like.analysis.verdict import UNRESOLVED_SPREAD, UNRESOLVED_TIMING_FACTOR
+from lerax_like.analysis.study import VERDICT_TARGETS, read_csv
+from lerax_like.analysis.verdict import UNRESOLVED_SPREAD, UNRESOLVED_TIMING_FACTOR, cheapest_at
 
 
 def _read_csv(folder: pathlib.Path, name: str) -> list[dict] | None:

@@ -26,7 +26,7 @@ jax.config.update("jax_enable_x64", True)
 
 from benchmarks import results_dir  # noqa: E402
 from lerax_like.analysis import SolverSweep, StudyConfig, run_study  # noqa: E402
-from lerax_like.analysis.report import write_study  # noqa: E402
+from lerax_like.analysis.study import write_study  # noqa: E402
 
 CONTACTS = {
     "walls": {"track_limit": 0.1, "restitution": 0.8},

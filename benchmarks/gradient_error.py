@@ -19,12 +19,10 @@ jax.config.update("jax_enable_x64", True)
 
 import lerax_like as ll  # noqa: E402  (after float64 is on)
 from benchmarks import benchmark_parser, output_folder  # noqa: E402
-from lerax_like.analysis.gradient_accuracy import (  # noqa: E402
-    GradientStudyConfig,
-    run_gradient_study,
-    sensitivity_signs,
-)
-from lerax_like.analysis.report import format_gradient_table, write_gradient_study  # noqa: E402
+from lerax_like.analysis.gradient_accuracy import GradientStudyConfig, run_gradient_study  # noqa: E402
+from lerax_like.gradients import sensitivity_signs  # noqa: E402
+from lerax_like.analysis.gradient_accuracy import write_gradient_study  # noqa: E402
+from lerax_like.analysis.tables import format_gradient_table  # noqa: E402
 
 STEPS = 100
 Y0 = jnp.array([0.0, 0.0, 0.5, 0.0])

@@ -26,6 +26,7 @@ from benchmarks import benchmark_parser, output_folder  # noqa: E402
 from lerax_like.analysis.gradient_variance import (  # noqa: E402
     GradientVarianceConfig,
     build_env,
+    initial_state,
     nominal_gain,
     precision_at_horizons,
 )
@@ -65,9 +66,18 @@ def main(argv=None):
     start = time.perf_counter()
     for config, solver, policy, rtol, atol in cases(arguments.quick):
         began = time.perf_counter()
+        envs = {}
+        for dtype in ("float64", "float32"):
+            env = build_env(config.scene, config.scene_kwargs, solver, dtype)
+            envs[dtype] = (env, initial_state(env, config.initial_state, config.seed))
         if (config.name, solver) not in gains:  # the LQR gain takes a Riccati iteration
-            gains[config.name, solver] = nominal_gain(config, build_env(config, solver, "float64"))
-        result = precision_at_horizons(config, solver, policy, gains[config.name, solver], horizons)
+            gains[config.name, solver] = nominal_gain(
+                envs["float64"][0], config.feedback_gain, config.state_weight, config.action_weight
+            )
+        result = precision_at_horizons(
+            envs, solver, policy, gains[config.name, solver], horizons,
+            state_weight=config.state_weight, action_weight=config.action_weight,
+        )
         for index, horizon in enumerate(result["horizons"]):
             rows.append({
                 "case": config.name, "solver": solver, "rtol": rtol or "", "atol": atol or "", "policy": policy,
@@ -85,7 +95,7 @@ def main(argv=None):
     write_csv(rows, out / "gradient_precision.csv", cell=str)
     record = {
         "horizons": list(horizons),
-        "dt": float(build_env(GradientVarianceConfig.default("CartPoleContinuous"), "euler", "float64").dt),
+        "dt": float(build_env("CartPoleContinuous", {}, "euler", "float64").dt),
         "definition": "relative error = |g32 - g64| / |g64| of the gradient of the rollout cost over the horizon at "
                       "the nominal theta; the leading digit is lost where it exceeds 0.1 (first such horizon of the grid)",
         "seconds": round(time.perf_counter() - start, 1),

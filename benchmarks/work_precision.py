@@ -19,8 +19,9 @@ import os
 
 from benchmarks import results_dir
 from lerax_like.analysis import SCENES, StudyConfig, run_study
-from lerax_like.analysis.report import VERDICT_TARGETS, cheapest_at, format_orders, format_table, write_study
-from lerax_like.analysis.verdict import verdict_line
+from lerax_like.analysis.study import VERDICT_TARGETS, write_study
+from lerax_like.analysis.tables import format_orders, format_table
+from lerax_like.analysis.verdict import cheapest_at, verdict_line
 from lerax_like.analysis.recording import environment_record
 
 

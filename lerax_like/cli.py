@@ -101,10 +101,11 @@ def _scene_keywords(arguments, command: str) -> dict[str, float]:
 
 
 def _study(arguments) -> int:
-    from .analysis import StudyConfig, run_study, sweeps_for, write_study
-    from .analysis.report import VERDICT_TARGETS, cheapest_at, format_orders, format_table, matplotlib_available
+    from .analysis.recording import matplotlib_available
+    from .analysis.study import VERDICT_TARGETS, StudyConfig, run_study, sweeps_for
     from .analysis.sweeps import with_substeps
-    from .analysis.verdict import order_disagreements, verdict_line
+    from .analysis.tables import format_orders, format_table
+    from .analysis.verdict import cheapest_at, order_disagreements, verdict_line
     from .analysis.scenes import SCENES
 
     arguments.scene = _scene_from(arguments, "study")
@@ -129,7 +130,7 @@ def _study(arguments) -> int:
     start = time.perf_counter()
     result = run_study(config, progress=not arguments.no_progress)
     elapsed = time.perf_counter() - start
-    paths = write_study(result, arguments.out, plot=plot, study_seconds=elapsed)
+    paths = result.write(arguments.out, plot=plot, study_seconds=elapsed)
     print(format_table(result.rows))
     print()
     print("Convergence orders (fixed steps; errors between the reference floor and "
@@ -146,7 +147,7 @@ def _study(arguments) -> int:
 
 def _finish(arguments, plot: bool, elapsed: float, paths: dict[str, str]) -> int:
     """The closing lines of a study: the plot skipped (and why), the time, the files."""
-    from .analysis.report import PLOT_HINT
+    from .analysis.recording import PLOT_HINT
 
     print()
     if not arguments.no_plot and not plot:
@@ -157,7 +158,7 @@ def _finish(arguments, plot: bool, elapsed: float, paths: dict[str, str]) -> int
 
 def _gradients(arguments) -> int:
     from .analysis.gradient_accuracy import GradientStudyConfig, run_gradient_study
-    from .analysis.report import format_gradient_table, write_gradient_study
+    from .analysis.tables import format_gradient_table
 
     arguments.scene = _scene_from(arguments, "gradients")
     overrides = {"mode": arguments.mode}
@@ -180,10 +181,10 @@ def _gradients(arguments) -> int:
     start = time.perf_counter()
     result = run_gradient_study(config)
     elapsed = time.perf_counter() - start
-    from .analysis.report import PLOT_HINT, matplotlib_available
+    from .analysis.recording import matplotlib_available
 
     plot = not arguments.no_plot and matplotlib_available()
-    paths = write_gradient_study(result, arguments.out, plot=plot, study_seconds=elapsed)
+    paths = result.write(arguments.out, plot=plot, study_seconds=elapsed)
     reference = result.record["reference"]
     print(f"{config.scene}: gradient of {config.cost.__name__} over {config.horizon} env steps with respect to "
           f"{', '.join(result.record['parameter_names'])} ({config.mode} mode); error relative to "
@@ -203,11 +204,11 @@ def _gradients(arguments) -> int:
 def _gradient_variance(arguments) -> int:
     from .analysis.gradient_variance import (
         GradientVarianceConfig,
-        format_gradient_variance_table,
         run_gradient_variance,
         summary,
         write_gradient_variance,
     )
+    from .analysis.tables import format_gradient_variance_table
 
     arguments.scene = _scene_from(arguments, "gradient-variance")
     overrides = {}

@@ -9,7 +9,7 @@ import pytest
 
 import lerax_like as ll
 from lerax_like.analysis import GRADIENT_CSV_COLUMNS, gradient_scenes
-from lerax_like.analysis.gradient_accuracy import trajectory_sensitivity, with_integrator
+from lerax_like.gradients import trajectory_sensitivity, with_integrator
 from lerax_like.cli import main
 
 

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import lerax_like.analysis.gradient_variance as gv
+from lerax_like.gradients import alpha_weight, estimate_gradients, finite_time_lyapunov
 from lerax_like.cli import main
 
 
@@ -28,8 +29,8 @@ def test_estimators_and_reference_are_unbiased_on_a_known_smoothed_gradient():
         return jnp.sum(t**3), jnp.asarray(True)
 
     active = np.ones(4, dtype=bool)
-    estimates = gv.estimate_gradients(f, theta, active, 1, sigma, samples=512, reference_samples=8192,
-                                      key=jax.random.key(1))
+    estimates = estimate_gradients(f, theta, active, 1, sigma, samples=512, reference_samples=8192,
+                                   key=jax.random.key(1))
     exact = 3 * np.asarray(theta) ** 2 + 3 * sigma**2
     for name in ("first_order", "zeroth_order", "reference"):
         stats = estimates[name]
@@ -44,17 +45,17 @@ def test_alpha_order_weight_minimises_the_variance_and_guards_against_bias():
     zeroth = rng.normal(size=(4000, 3)) * 2.0
     first = rng.normal(size=(4000, 3)) * 1.0
     # Independent, unbiased: alpha = V0 / (V0 + V1) = 4 / 5.
-    alpha, guarded = gv.alpha_weight(first, zeroth)
+    alpha, guarded = alpha_weight(first, zeroth)
     assert not guarded and abs(alpha - 0.8) < 0.03
-    alpha, guarded = gv.alpha_weight(first + 1.0, zeroth)
+    alpha, guarded = alpha_weight(first + 1.0, zeroth)
     assert guarded and alpha == 0.0
 
 
 @pytest.mark.slow  # 8 to 11 s on 2 cores
 def test_objective_gradient_matches_finite_differences():
     config = gv.GradientVarianceConfig.default("CartPole", quick=True)
-    env = gv.build_env(config, "rk4")
-    y0 = gv.initial_state(env, config)
+    env = gv.build_env(config.scene, config.scene_kwargs, "rk4", config.dtype)
+    y0 = gv.initial_state(env, config.initial_state, config.seed)
     gain = jnp.asarray(gv.lqr_gain(env, config.state_weight, config.action_weight))
     for kind, theta in (("open_loop", 0.1 * jnp.sin(jnp.arange(20.0))[:, None]), ("linear_feedback", gain)):
         f = jax.jit(gv.objective(gv.stage_costs(env, y0, kind, 20, config.state_weight, config.action_weight)))
@@ -71,7 +72,7 @@ def test_objective_gradient_matches_finite_differences():
 @pytest.mark.slow  # about 10 s on 2 cores
 def test_lqr_gain_solves_the_discrete_riccati_equation():
     scipy_linalg = pytest.importorskip("scipy.linalg")
-    env = gv.build_env(gv.GradientVarianceConfig.default("CartPole"), "rk4")
+    env = gv.build_env("CartPoleContinuous", {}, "rk4", "float64")
     step = lambda y, a: gv.step_state(env, y, a)[0]  # noqa: E731
     zero_y, zero_a = jnp.zeros(4), jnp.zeros(1)
     A = np.asarray(jax.jacfwd(step)(zero_y, zero_a))
@@ -90,10 +91,10 @@ def test_lyapunov_exponent_of_the_upright_cart_pole_is_its_unstable_eigenvalue()
     # stretching rate is the square root of that rate. From a 1e-9 tilt the fall stays
     # linear for 4 s; the finite-time exponent is that rate plus a transient / T, so the
     # stretching between 2 s and 4 s gives the rate itself.
-    config = gv.GradientVarianceConfig.default("CartPole", initial_state=(0.0, 0.0, 1e-9, 0.0))
-    env = gv.build_env(config, "rk4")
-    y0 = gv.initial_state(env, config)
-    exponents = np.asarray(gv.finite_time_lyapunov(env, y0, "open_loop", jnp.zeros((200, 1)), 200))
+    env = gv.build_env("CartPoleContinuous", {}, "rk4", "float64")
+    y0 = gv.initial_state(env, (0.0, 0.0, 1e-9, 0.0), seed=0)
+    step = gv.closed_loop_step(env, "open_loop", jnp.zeros((200, 1)))
+    exponents = np.asarray(finite_time_lyapunov(step, y0, 200, env.dt))
     leading = np.max(exponents, axis=1)
     rate = (leading[199] * 4.0 - leading[99] * 2.0) / 2.0
     expected = math.sqrt(9.8 / (0.5 * (4 / 3 - 0.1 / 1.1)))
@@ -104,8 +105,13 @@ def test_lyapunov_exponent_of_the_upright_cart_pole_is_its_unstable_eigenvalue()
 
 @pytest.mark.slow  # 8 to 11 s on 2 cores
 def test_float32_gradient_is_float32_and_loses_digits_with_the_horizon():
-    config = gv.GradientVarianceConfig.default("CartPole", quick=True, precision_horizon=60)
-    entry = gv.precision_loss(config, "rk4", "open_loop", np.zeros((1, 4)))
+    config = gv.GradientVarianceConfig.default("CartPole", quick=True)
+    envs = {}
+    for dtype in ("float64", "float32"):
+        env = gv.build_env(config.scene, config.scene_kwargs, "rk4", dtype)
+        envs[dtype] = (env, gv.initial_state(env, config.initial_state, config.seed))
+    entry = gv.precision_loss(envs, "rk4", "open_loop", np.zeros((1, 4)), 60, state_weight=config.state_weight,
+                              action_weight=config.action_weight)
     error = np.asarray(entry["relative_error"])
     assert error.shape == (60,)
     # float32 rounding, neither float64's nor garbage, after one step ...
@@ -143,7 +149,7 @@ def test_bad_input_is_refused_with_the_parameter_named():
     with pytest.raises(ValueError, match="reference_samples"):
         gv.GradientVarianceConfig(samples=100, reference_samples=150)
     with pytest.raises(ValueError, match="clips or wraps"):
-        gv.build_env(gv.GradientVarianceConfig(scene="Pendulum"), "rk4")
+        gv.build_env("Pendulum", {}, "rk4", "float64")
     assert main(["gradient-variance", "Pendulum", "--quick", "--no-plot", "--out", "unused"]) == 2
 
 

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import lerax_like as ll
-from lerax_like.analysis import gradcheck
+from lerax_like.gradients import gradcheck
 from lerax_like.env import EnvState
 from lerax_like.gradients import make_adjoint, with_adjoint
 

@@ -1,6 +1,6 @@
 """The core knows nothing of the front ends: read off the package's source, not its behaviour.
 
-Dependencies run one way: physics, integrate, env, scenes, spaces and analysis import
+Dependencies run one way: physics, integrate, gradients, env, scenes, spaces and analysis import
 nothing from the Gymnasium layer (`lerax_like.gym`), the SB3 layer (`lerax_like.sb3`),
 Gymnasium or SB3; and `env.py`, the step semantics every front end shares, names nothing
 of Gymnasium (its spec, its attribute names, its keywords).
@@ -15,7 +15,7 @@ import lerax_like
 
 
 PACKAGE = pathlib.Path(lerax_like.__file__).parent
-CORE = ("physics", "integrate", "env", "scenes", "spaces", "analysis")
+CORE = ("physics", "integrate", "gradients", "env", "scenes", "spaces", "analysis")
 FRONT_ENDS = ("lerax_like.gym", "lerax_like.sb3", "gymnasium", "stable_baselines3")
 
 
@@ -124,3 +124,50 @@ def test_the_layer_holds_the_gymnasium_declarations():
     # The layer's own names stay in it (`lerax_like.gym.GymnasiumSpec`), and no scene class holds one.
     assert not any(hasattr(scene, "gymnasium") for scene in lerax_like.SCENES.values())
     assert {spec.scene for spec in lerax_like.gym.SPECS.values()} <= set(lerax_like.SCENES.values())
+
+
+def _module_level_imports(path: pathlib.Path) -> set[str]:
+    """What `path` imports when it is imported: `imported` less the imports inside functions
+    and under `if TYPE_CHECKING:`."""
+
+    def runs_on_import(nodes):
+        for node in nodes:
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                continue
+            if isinstance(node, ast.If) and isinstance(node.test, ast.Name) and node.test.id == "TYPE_CHECKING":
+                yield from runs_on_import(node.orelse)
+                continue
+            yield node
+            yield from runs_on_import(ast.iter_child_nodes(node))
+
+    module = _module_name(path, PACKAGE)
+    package = (module if path.name == "__init__.py" else module.rpartition(".")[0]).split(".")
+    names = set()
+    for node in runs_on_import(ast.parse(path.read_text()).body):
+        if isinstance(node, ast.Import):
+            names.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                prefix = ".".join(package[: len(package) - (node.level - 1)] + ([node.module] if node.module else []))
+            else:
+                prefix = node.module
+            names.add(prefix)
+            names.update(f"{prefix}.{alias.name}" for alias in node.names)
+    return names
+
+
+def test_the_gradient_tools_import_nothing_above_them_on_import():
+    # `env.py` and the integrator import `lerax_like.gradients`: what the package imports when it
+    # is imported must not reach back up (a cycle) or pull SciPy into `import lerax_like`.
+    above = ("lerax_like.env", "lerax_like.scenes", "lerax_like.analysis", "lerax_like.integrate", "scipy")
+    offending = {
+        str(path.relative_to(PACKAGE)): sorted(
+            name for name in _module_level_imports(path) if any(name == a or name.startswith(a + ".") for a in above)
+        )
+        for path in _modules("gradients")
+    }
+    assert {path: names for path, names in offending.items() if names} == {}
+    # The reader does see a lazy import as lazy, and a module-level one as module-level.
+    sensitivity = PACKAGE / "gradients" / "_sensitivity.py"
+    assert "lerax_like.env" in imported(sensitivity) and "lerax_like.env" not in _module_level_imports(sensitivity)
+    assert "lerax_like.gradients._adjoint" in _module_level_imports(sensitivity)

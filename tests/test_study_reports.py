@@ -12,7 +12,8 @@ import pytest
 from lerax_like.analysis import SolverSweep, StudyConfig, run_study
 from lerax_like.analysis.convergence import convergence_orders
 from lerax_like.analysis.figures import plot_work_precision
-from lerax_like.analysis.report import format_orders, format_table, read_csv, write_study
+from lerax_like.analysis.study import read_csv, write_study
+from lerax_like.analysis.tables import format_orders, format_table
 from lerax_like.analysis.verdict import order_disagreements
 from lerax_like.cli import main
 

@@ -18,7 +18,8 @@ import pytest
 import lerax_like as ll
 from lerax_like.analysis import SolverSweep, StudyConfig, dense_reference_trajectories, run_study
 from lerax_like.analysis.convergence import convergence_orders
-from lerax_like.analysis.report import format_orders, format_table, write_study
+from lerax_like.analysis.study import write_study
+from lerax_like.analysis.tables import format_orders, format_table
 from lerax_like.cli import main
 
 

@@ -12,7 +12,8 @@ from lerax_like.analysis import SolverSweep, StudyConfig, make_scene, reference_
 from lerax_like.analysis.figures import order_guide
 from lerax_like.analysis.measurements import conserved_quantities
 from lerax_like.analysis.recording import read_csv_rows
-from lerax_like.analysis.report import VERDICT_TARGETS, format_table, read_csv, write_csv
+from lerax_like.analysis.study import VERDICT_TARGETS, read_csv, write_csv
+from lerax_like.analysis.tables import format_table
 from lerax_like.analysis.verdict import cheapest_at, group_settings, timing_unresolved
 
 

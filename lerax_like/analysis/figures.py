@@ -1,6 +1,6 @@
 """The figures of the work-precision studies: of the solutions and of their gradients.
 
-Drawn from a study's rows alone (as read back by `report.read_csv` too), with matplotlib,
+Drawn from a study's rows alone (as read back by `study.read_csv` too), with matplotlib,
 an optional dependency (`recording.pyplot` raises with the install hint).
 """
 
@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from .gradient_estimators import ESTIMATORS
+from ..gradients import ESTIMATORS
 from .recording import finish_figure, pyplot, save_figure
 from .verdict import group_settings, timing_unresolved
 

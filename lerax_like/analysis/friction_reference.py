@@ -176,7 +176,7 @@ def friction_reference_gradient(
     import jax.numpy as jnp
     from jax.flatten_util import ravel_pytree
 
-    from .gradcheck import selection_spec
+    from ..gradients import selection_spec
 
     inputs = np.asarray(inputs, dtype=np.float64)
     with jax.enable_x64(True):

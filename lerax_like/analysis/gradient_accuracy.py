@@ -7,17 +7,18 @@ derivative of the continuous system: they differ by an error that shrinks with t
 solver's step like the solver's own error, and it can flip a gradient's sign.
 `gradient_work_precision` measures this error against a tight reference, beside the run
 time of the gradient: the work-precision idea applied to gradients. `run_gradient_study`
-does it for a scene by name (`lerax-like gradients SCENE`), and `sensitivity_signs`
-finds where a solver's sensitivity has the wrong sign along a trajectory.
+does it for a scene by name (`lerax-like gradients SCENE`);
+`lerax_like.gradients.sensitivity_signs` finds where a solver's sensitivity has the wrong
+sign along a trajectory.
 """
 
 import dataclasses
 import math
+import os
 import time
 from collections.abc import Callable, Sequence
 from typing import Any, Literal
 
-import diffrax
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -26,48 +27,31 @@ import numpy as np
 from jax.flatten_util import ravel_pytree
 
 from .._fields import check_count
+from .._module_attributes import moved_names
 from .._types import Array, BoolScalar, Float, Scalar, State
 from ..env import AbstractEnv, EnvState, rollout
-from ..gradients import with_adjoint
-from ..integrate import Integrator, describe_solver, make_integrator
-from .gradcheck import selection_spec
+from ..gradients import reference_integrator, selection_spec, with_adjoint, with_integrator
+from ..integrate import Integrator, describe_solver
+from .convergence import convergence_orders
+from .figures import plot_gradient_work_precision
+from .recording import PLOT_HINT, environment_record, matplotlib_available, write_record
+from .recording import write_csv as write_rows
 from .scenes import SCENES, make_scene
-from .study import SolverSweep, StudyResult, environment_record, tolerance_pairs
+from .sweeps import SolverSweep, tolerance_pairs
+
+
+GRADIENT_CSV_COLUMNS = (
+    "scene", "solver", "label", "controller", "dt", "env_dt", "substeps", "rtol", "atol", "error", "seconds",
+    "solver_ok", "mode", "horizon", "reference_rtol", "reference_floor",
+)
+"""One row per solver setting of a gradient study. `error` is the relative 2-norm error of
+the gradient against the reference; `seconds` the median time of one gradient; `dt` the
+solver's step (fixed-step rows); `reference_floor` the reference's own relative error
+estimate. The gradients themselves are in the JSON."""
 
 
 Loss = Callable[[AbstractEnv], tuple[Scalar, BoolScalar]]
 """A scalar loss of an env, and whether every solve behind it succeeded."""
-
-
-def with_integrator(env: AbstractEnv, integrator: Integrator) -> AbstractEnv:
-    """`env` with its integrator replaced."""
-    return eqx.tree_at(lambda e: e.integrator, env, integrator)
-
-
-def reference_integrator(rtol: float = 1e-12, dtmax: float = math.inf) -> Integrator:
-    """Dopri8 at tight tolerances (`atol = rtol / 100`): the stand-in for the continuous system."""
-    # Tolerances and largest step as arrays, not Python floats or None: they are then
-    # traced leaves, and the reference and its floor estimate share one compilation.
-    relative = jnp.asarray(rtol)
-    controller = diffrax.PIDController(rtol=relative, atol=relative * 1e-2, dtmax=jnp.asarray(dtmax))
-    return make_integrator("dopri8", controller, max_steps=100_000)
-
-
-def trajectory_sensitivity(
-    env: AbstractEnv, where: Callable[[AbstractEnv], Array], y0: State, actions: Array
-) -> Float[Array, "T n"]:
-    """`d ys / d where(env)` along a rollout, shape `(T, n)`, by forward mode (one pass).
-
-    `where(env)` must be a scalar leaf; the env's integrator gets the forward adjoint.
-    """
-    env = with_adjoint(env, "forward")
-
-    def ys(parameter):
-        perturbed = eqx.tree_at(where, env, parameter)
-        state = EnvState(y=y0, steps=jnp.zeros((), dtype=int))
-        return rollout(perturbed, state, actions, key=jr.key(0))[0]
-
-    return eqx.filter_jit(jax.jacfwd(ys))(where(env))
 
 
 def mean_squared_state(ys: Float[Array, "T n"]) -> Scalar:
@@ -368,7 +352,29 @@ def _describe(function: Callable) -> str:
     return f"{function.__name__}: {doc.splitlines()[0]}" if doc else function.__name__
 
 
-def run_gradient_study(config: GradientStudyConfig) -> StudyResult:
+@dataclasses.dataclass
+class GradientStudyResult:
+    """The rows of a gradient study (one per solver setting; see `gradient_work_precision`),
+    its `record` (configuration, rollout, reference, environment) and its `config`.
+
+    `write` writes its files; `convergence_orders` fits the order of the gradient error per
+    fixed-step solver.
+    """
+
+    config: GradientStudyConfig
+    rows: list[dict[str, Any]]
+    record: dict[str, Any]
+
+    def convergence_orders(self) -> list[dict[str, Any]]:
+        """Fitted slopes of log gradient error on log step size, per fixed-step solver."""
+        return convergence_orders(self.rows, ceiling=self.config.fit_ceiling)
+
+    def write(self, out: "str | os.PathLike", **options) -> dict[str, str]:
+        """`write_gradient_study(self, out, **options)`: the CSV, the JSON record and the figure."""
+        return write_gradient_study(self, out, **options)
+
+
+def run_gradient_study(config: GradientStudyConfig) -> GradientStudyResult:
     """Run `config` (in float64) and return its rows, one per solver setting.
 
     See `gradient_work_precision` for what a row holds; `result.convergence_orders()`
@@ -378,7 +384,7 @@ def run_gradient_study(config: GradientStudyConfig) -> StudyResult:
         return _run_gradient_study(config)
 
 
-def _run_gradient_study(config: GradientStudyConfig) -> StudyResult:
+def _run_gradient_study(config: GradientStudyConfig) -> GradientStudyResult:
     env = make_scene(config.scene, **config.scene_kwargs)
     if config.parameters is not None:
         fields = {name for part in _physical_parameters(env) for name in _field_names(part)}
@@ -448,39 +454,36 @@ def _run_gradient_study(config: GradientStudyConfig) -> StudyResult:
         "reference": {"solver": solver, **reference, "floor_estimate": floor_estimate},
         "environment": environment_record(),
     }
-    return StudyResult(config=config, rows=rows, record=record)
+    return GradientStudyResult(config=config, rows=rows, record=record)
 
 
-def sensitivity_signs(
-    env: AbstractEnv,
-    where: Callable[[AbstractEnv], Array],
-    y0: State,
-    actions: Array,
-    component: int,
-    *,
-    reference_rtol: float = 1e-12,
-    threshold: float = 0.2,
-) -> dict[str, Any]:
-    """Where the env's own solver gets the sign of `d y_component(t_k) / d where(env)` wrong.
 
-    Compares the sensitivity along the rollout of `actions` from `y0` (one value per env
-    step, by `trajectory_sensitivity`) with the reference's (`reference_integrator`).
-    Returns `{"times", "sensitivity", "reference", "wrong_sign_fraction",
-    "first_clear_wrong_sign_step"}`: the last is the first step at which the signs
-    differ while both magnitudes exceed `threshold` times the reference's largest (a
-    disagreement that is no near-zero crossing), or None.
+
+def write_gradient_study(
+    result: "GradientStudyResult", out: str | os.PathLike, *, plot: bool = True, stem: str | None = None,
+    signs: dict[str, Any] | None = None, **extra,
+) -> dict[str, str]:
+    """Write a gradient study's `<stem>.csv`, `<stem>.json` and (if `plot`) `<stem>.png` into `out`,
+    all through `recording`, the one writer.
+
+    `result` is what `run_gradient_study` returns; `stem` defaults to `<scene>_gradients`;
+    `signs` (from `sensitivity_signs`) goes into the JSON and the plot, `extra` into the JSON.
     """
-    approximate = np.asarray(trajectory_sensitivity(env, where, y0, actions)[:, component])
-    exact_env = with_integrator(env, reference_integrator(reference_rtol))
-    exact = np.asarray(trajectory_sensitivity(exact_env, where, y0, actions)[:, component])
-    wrong = np.sign(approximate) != np.sign(exact)
-    large = np.minimum(np.abs(approximate), np.abs(exact)) > threshold * np.max(np.abs(exact))
-    clear = np.nonzero(wrong & large)[0]
-    return {
-        "times": (float(env.dt) * np.arange(1, len(exact) + 1)).tolist(),
-        "sensitivity": approximate.tolist(),
-        "reference": exact.tolist(),
-        "wrong_sign_fraction": float(np.mean(wrong)),
-        "first_clear_wrong_sign_step": int(clear[0]) if clear.size else None,
-        "threshold": threshold,
-    }
+    os.makedirs(out, exist_ok=True)
+    stem = os.path.join(out, stem or f"{result.config.scene}_gradients")
+    paths = {"csv": stem + ".csv", "json": stem + ".json"}
+    write_rows(result.rows, paths["csv"], columns=GRADIENT_CSV_COLUMNS)
+    record = {**result.record, "rows": result.rows, "convergence_orders": result.convergence_orders()}
+    if signs is not None:
+        record["wrong_sign"] = signs
+    if plot and matplotlib_available():
+        paths["png"] = stem + ".png"
+        plot_gradient_work_precision(result.rows, paths["png"], signs=signs)
+    elif plot:
+        record["figure"] = {"skipped": f"matplotlib is not installed: {PLOT_HINT}"}
+    write_record({**record, **extra}, paths["json"])
+    return paths
+
+
+# The sensitivities are gradient tools, in `lerax_like.gradients` now.
+__getattr__ = moved_names(__name__, {"lerax_like.gradients": ("sensitivity_signs", "trajectory_sensitivity")})

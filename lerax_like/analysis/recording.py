@@ -82,12 +82,9 @@ def environment_record() -> dict[str, Any]:
         try:
             versions[package] = importlib.metadata.version(package)
         except importlib.metadata.PackageNotFoundError:
-            if package == "lerax_like":
-                from .. import __version__
-
-                versions[package] = __version__
-            else:
-                versions[package] = None
+            # Not installed (lerax_like itself too, when run from a source tree it was never
+            # installed from): no version to record, said as null rather than guessed.
+            versions[package] = None
     processor = platform.processor()
     try:
         with open("/proc/cpuinfo") as cpuinfo:

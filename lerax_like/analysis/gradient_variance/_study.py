@@ -1,39 +1,5 @@
-"""When do the simulator's gradients pay? Gradient variance, bias and chaos, per scene and solver.
+"""The gradient-variance study: its configuration, its run, its result and the one way its files are written."""
 
-The question of Suh, Simchowitz, Zhang and Tedrake, "Do Differentiable Simulators Give
-Better Policy Gradients?" (ICML 2022), measured on this package's envs. The objective is
-the Gaussian smoothing of a rollout cost,
-
-    F(theta) = E_w[f(theta + sigma w)],  w ~ N(0, I),
-
-where `theta` parametrises the actions over a horizon of `H` env steps (an open-loop
-action sequence, or the gain of a linear state feedback) and `f` is the total quadratic
-cost of the rollout from a fixed start. Two estimators of `grad F` over `N` samples:
-
-- `first_order`: the mean of `grad f(theta + sigma w)`, the gradient through the simulator;
-- `zeroth_order`: the mean of `(f(theta + sigma w) - f(theta)) w / sigma`, black box;
-- `alpha_order`: the paper's interpolation `alpha first + (1 - alpha) zeroth`, with `alpha`
-  chosen to minimise the variance, and 0 when the two disagree by more than three
-  standard errors (the paper's guard against the first-order estimator's bias).
-
-Each is reported with its norm, its variance (the trace of the per-sample covariance)
-and its bias against a reference `grad F`, all with standard errors. The reference is a
-zeroth-order estimate with antithetic samples, `(f(theta + sigma w) - f(theta - sigma w))
-w / (2 sigma)`, over many samples: by Stein's lemma it is unbiased for `grad F` whether
-or not `f` is differentiable, and it never uses the simulator's derivative, so it can
-expose a bias of the first-order estimator (the first-order mean over many samples could
-not: it would share that bias).
-
-Beside them: the finite-time Lyapunov exponent of the nominal trajectory (QR
-renormalisation of the product of the step Jacobians), the horizon past which the
-first-order variance is then expected to exceed the zeroth-order one, the horizon where
-it is measured to, and the horizon at which the float32 gradient has lost its leading
-correct digit against float64.
-
-The objective is in `rollout_cost`, the estimators in `gradient_estimators`, the
-exponents, float32 loss and crossover in `chaos`, the figure in `figures`; this module
-holds the study's configuration, its runner and what it writes.
-"""
 
 import dataclasses
 import math
@@ -46,39 +12,24 @@ import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
 
-from .._fields import check_count
-from ..integrate import SOLVERS
-from ..scenes import SCENES
-from .chaos import (
-    finite_time_lyapunov as finite_time_lyapunov,
-    precision_at_horizons as precision_at_horizons,
-    precision_loss as precision_loss,
-    truncated_gradients as truncated_gradients,
-    variance_crossover as variance_crossover,
+from ..._fields import check_count
+from ...gradients import ESTIMATORS, Evaluators, estimate_gradients, finite_time_lyapunov
+from ...integrate import SOLVERS
+from ...scenes import SCENES
+from ..figures import plot_gradient_variance
+from ..recording import environment_record, write_csv, write_record
+from ._objective import (
+    POLICIES,
+    active_parameters,
+    build_env,
+    closed_loop_step,
+    initial_state,
+    nominal_gain,
+    nominal_parameters,
+    objective,
+    stage_costs,
 )
-from .gradient_estimators import (
-    ESTIMATORS as ESTIMATORS,
-    Evaluators as Evaluators,
-    alpha_weight as alpha_weight,
-    estimate_gradients as estimate_gradients,
-    per_sample_statistics as per_sample_statistics,
-)
-from .figures import plot_gradient_variance as plot_gradient_variance
-from .recording import environment_record, write_csv, write_record
-from .rollout_cost import (
-    POLICIES as POLICIES,
-    action_size as action_size,
-    active_parameters as active_parameters,
-    build_env as build_env,
-    initial_state as initial_state,
-    lqr_gain as lqr_gain,
-    nominal_gain as nominal_gain,
-    nominal_parameters as nominal_parameters,
-    objective as objective,
-    policy_action as policy_action,
-    stage_costs as stage_costs,
-    step_state as step_state,
-)
+from ._precision import precision_loss, variance_crossover
 
 
 GRADIENT_VARIANCE_CSV_COLUMNS = (
@@ -258,10 +209,14 @@ class GradientVarianceResult:
     rows: list[dict[str, Any]]
     record: dict[str, Any]
 
+    def write(self, out: "str | os.PathLike", **options) -> dict[str, str]:
+        """`write_gradient_variance([self], out, **options)`: the CSV, the JSON record and the figure."""
+        return write_gradient_variance([self], out, **options)
+
 
 def run_gradient_variance(config: GradientVarianceConfig, *, progress: Callable[[str], None] | None = None) -> GradientVarianceResult:
     """Run `config`: the estimators per solver, policy, horizon and sigma; the Lyapunov
-    exponents, crossovers and float32 digit loss (see the module docstring).
+    exponents, crossovers and float32 digit loss (see `lerax_like.analysis.gradient_variance`).
 
     Computed with float64 enabled (the estimators' own arithmetic in `config.dtype`).
     """
@@ -273,16 +228,18 @@ def run_gradient_variance(config: GradientVarianceConfig, *, progress: Callable[
     key = jr.key(config.seed)
     with jax.enable_x64(True):
         for solver in config.solvers:
-            env = build_env(config, solver)
-            env64 = build_env(config, solver, "float64")
-            y0 = initial_state(env, config)
-            gain = nominal_gain(config, env64)
+            env = build_env(config.scene, config.scene_kwargs, solver, config.dtype)
+            env64 = build_env(config.scene, config.scene_kwargs, solver, "float64")
+            y0 = initial_state(env, config.initial_state, config.seed)
+            y0_64 = initial_state(env64, config.initial_state, config.seed)
+            gain = nominal_gain(env64, config.feedback_gain, config.state_weight, config.action_weight)
             record["feedback_gains"][solver] = gain.tolist()
             for kind in config.policies:
                 exponents = None
                 if config.lyapunov:
                     theta = nominal_parameters(env64, kind, longest, jnp.asarray(gain))
-                    exponents = np.asarray(finite_time_lyapunov(env64, initial_state(env64, config), kind, theta, longest))
+                    step = closed_loop_step(env64, kind, theta)
+                    exponents = np.asarray(finite_time_lyapunov(step, y0_64, longest, env64.dt))
                     record["lyapunov"].append({
                         "solver": solver, "policy": kind,
                         "leading_exponent": np.max(exponents, axis=1).tolist(),
@@ -307,14 +264,21 @@ def run_gradient_variance(config: GradientVarianceConfig, *, progress: Callable[
                                  for name in ESTIMATORS]
                 record["compile_seconds"][f"{solver}/{kind}"] = evaluators.compile_seconds
                 if exponents is not None and len(config.horizons) > 1:
-                    record["crossover"] += _crossovers(config, rows, solver, kind, float(np.max(exponents[-1])),
-                                                       float(env64.dt))
+                    record["crossover"] += _crossovers(rows, solver, kind, config.sigmas, config.horizons,
+                                                       float(np.max(exponents[-1])), float(env64.dt))
                 if config.precision:
                     progress(f"{config.name} {solver} {kind} float32 vs float64")
-                    record["precision"].append(precision_loss(config, solver, kind, gain))
+                    envs = {}
+                    for dtype in ("float64", "float32"):
+                        env_of_dtype = build_env(config.scene, config.scene_kwargs, solver, dtype)
+                        envs[dtype] = (env_of_dtype, initial_state(env_of_dtype, config.initial_state, config.seed))
+                    record["precision"].append(precision_loss(
+                        envs, solver, kind, gain, config.precision_horizon or longest,
+                        state_weight=config.state_weight, action_weight=config.action_weight,
+                    ))
         record = {
             "config": {**dataclasses.asdict(config), "case": config.name},
-            "dt": float(build_env(config, config.solvers[0], "float64").dt),
+            "dt": float(build_env(config.scene, config.scene_kwargs, config.solvers[0], "float64").dt),
             **DESCRIPTIONS,
             **record,
             "environment": environment_record(),
@@ -372,18 +336,20 @@ def _estimator_row(
     }
 
 
-def _crossovers(config, rows, solver: str, kind: str, exponent: float, dt: float) -> list[dict[str, Any]]:
+def _crossovers(
+    rows, solver: str, kind: str, sigmas: Sequence[float], horizons: Sequence[int], exponent: float, dt: float
+) -> list[dict[str, Any]]:
     """`variance_crossover` of one solver and policy, per sigma, from its rows."""
     out = []
-    for sigma in config.sigmas:
+    for sigma in sigmas:
         def variances(name):
             return [next(r["variance"] for r in rows if r["solver"] == solver and r["policy"] == kind
                          and r["sigma"] == sigma and r["horizon"] == h and r["estimator"] == name)
-                    for h in config.horizons]
+                    for h in horizons]
 
         out.append({
-            "solver": solver, "policy": kind, "sigma": sigma, "horizons": list(config.horizons),
-            **variance_crossover(config.horizons, variances("first_order"), variances("zeroth_order"), exponent, dt),
+            "solver": solver, "policy": kind, "sigma": sigma, "horizons": list(horizons),
+            **variance_crossover(horizons, variances("first_order"), variances("zeroth_order"), exponent, dt),
         })
     return out
 
@@ -434,19 +400,6 @@ def summary(result: GradientVarianceResult) -> list[dict[str, Any]]:
                     entry["float32_relative_error_at_longest"] = p["relative_error"][-1]
             out.append(entry)
     return out
-
-
-def format_gradient_variance_table(rows: Sequence[dict[str, Any]]) -> str:
-    """A fixed-width table of the rows, for the terminal."""
-    header = ("solver", "policy", "H", "sigma", "estimator", "norm", "variance", "bias (se)")
-    lines: list[tuple[str, ...]] = [header]
-    for r in rows:
-        lines.append((
-            r["solver"], r["policy"], str(r["horizon"]), f"{r['sigma']:g}", r["estimator"],
-            f"{r['gradient_norm']:.3g}", f"{r['variance']:.3g}", f"{r['bias']:.2g} ({r['bias_standard_error']:.2g})",
-        ))
-    widths = [max(len(line[i]) for line in lines) for i in range(len(header))]
-    return "\n".join("  ".join(cell.ljust(width) for cell, width in zip(line, widths)).rstrip() for line in lines)
 
 
 def file_stem(name: str) -> str:
