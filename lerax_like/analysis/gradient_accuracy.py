@@ -261,8 +261,9 @@ class GradientStudyConfig:
     - `horizon`: env steps of the rollout; `seed`: draws the initial state from
       `env.initial` and the actions from the action space, unless `initial_state`,
       `actions` are given.
-    - `parameters`: names of `env.dynamics` fields to differentiate with respect to
-      (`None`: all of them, the physical parameters).
+    - `parameters`: names of fields of `env.dynamics` (or of a friction add-on) to
+      differentiate with respect to (`None`: all of them, the physical parameters); the
+      record's `parameter_names` lists them in the env's leaf order, the gradient's.
     - `cost`: the loss of the trajectory `ys` (default `mean_squared_state`).
     - `mode`, `repeats`, `reference_rtol`: as in `gradient_work_precision`. Forward mode
       by default: with a handful of parameters it is the cheaper exact mode.
@@ -320,27 +321,37 @@ def _physical_parameters(env: AbstractEnv) -> tuple[Any, ...]:
 def _parameter_where(env: AbstractEnv, parameters: tuple[str, ...] | None) -> Callable[[AbstractEnv], Any]:
     if parameters is None:
         return _physical_parameters if getattr(env, "friction", ()) else lambda env: env.dynamics
-    owner = {name: i for i, part in enumerate(_physical_parameters(env)) for name in _field_names(part)}
-    return lambda env: tuple(getattr(_physical_parameters(env)[owner[name]], name) for name in parameters)
+    parts = _physical_parameters(env)
+    owner = {name: i for i, part in enumerate(parts) for name in _field_names(part)}
+    # `eqx.tree_at` calls `where` on a copy whose leaves, and empty tuples such as a scene's
+    # `friction = ()`, are wrapped: index the friction add-ons the env has, never unpack.
+    frictions = range(len(parts) - 1)
+
+    def where(env: AbstractEnv) -> tuple[Any, ...]:
+        parts = (env.dynamics, *(env.friction[i] for i in frictions))  # pyright: ignore[reportAttributeAccessIssue]
+        return tuple(getattr(parts[owner[name]], name) for name in parameters)
+
+    return where
 
 
 def _field_names(module) -> list[str]:
     return [field.name for field in dataclasses.fields(module)]
 
 
-def _parameter_names(env: AbstractEnv, where: Callable[[AbstractEnv], Any], parameters) -> list[str]:
-    """One name per differentiated element, in the order of the flattened gradient."""
+def _parameter_names(env: AbstractEnv, where: Callable[[AbstractEnv], Any]) -> list[str]:
+    """One name per differentiated element, in the order of the flattened gradient: the env's
+    own leaf order (as `eqx.partition` and `ravel_pytree` flatten it), not the order in which
+    `where` lists the parameters. Each name is the field's path within its part (the
+    dynamics, or a friction add-on): `pole_mass`, `kinetic_friction`.
+    """
+    parts = {".dynamics", *(f".friction[{i}]" for i in range(len(getattr(env, "friction", ()))))}
+    chosen = jax.tree.leaves(selection_spec(env, where))
     names = []
-    for path, leaf in jax.tree_util.tree_flatten_with_path(where(env))[0]:
-        if not eqx.is_inexact_array(leaf):
+    for (path, leaf), selected in zip(jax.tree_util.tree_flatten_with_path(env)[0], chosen, strict=True):
+        if not selected:
             continue
-        if parameters is not None:
-            name = parameters[path[0].idx]
-        elif where is _physical_parameters:
-            # `(dynamics, friction, ...)`: the field's path within its part.
-            name = jax.tree_util.keystr(path[1:]).lstrip(".")
-        else:
-            name = jax.tree_util.keystr(path).lstrip(".")
+        within = next(cut for cut in range(1, len(path)) if jax.tree_util.keystr(path[:cut]) in parts)
+        name = jax.tree_util.keystr(path[within:]).lstrip(".")
         size = int(np.size(leaf))
         names.extend([name] if size == 1 else [f"{name}[{i}]" for i in range(size)])
     return names
@@ -450,7 +461,7 @@ def _run_gradient_study(config: GradientStudyConfig) -> GradientStudyResult:
         "dt": float(env.dt),
         "initial_state": np.asarray(y0).tolist(),
         "actions": np.asarray(actions).tolist(),
-        "parameter_names": _parameter_names(env, where, config.parameters),
+        "parameter_names": _parameter_names(env, where),
         "reference": {"solver": solver, **reference, "floor_estimate": floor_estimate},
         "environment": environment_record(),
     }
