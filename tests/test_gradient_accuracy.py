@@ -125,3 +125,24 @@ def test_gradient_study_refuses_a_malformed_scene_keyword(capsys):
         main(["gradients", "CartPoleContinuous", "--quick", "--no-plot", "--scene-keyword", "restitution"])
     assert exit_info.value.code == 2
     assert "--scene-keyword takes KEY=NUMBER" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("scene", "chosen"),
+    [("CartPole", ("half_length", "pole_mass")), ("SlidingBlock", ("kinetic_friction", "mass"))],
+)
+def test_gradient_study_of_chosen_parameters_is_the_full_study_s_entries(scene, chosen):
+    """`parameters=` picks leaves of the dynamics and of a friction add-on (whose `where`
+    must not unpack the add-ons: `eqx.tree_at` wraps them), in the order asked for."""
+    from lerax_like.analysis import GradientStudyConfig, SolverSweep, run_gradient_study
+
+    settings = dict(scene=scene, sweeps=(SolverSweep("rk4", substeps=(1,)),), horizon=10, repeats=1)
+    every = run_gradient_study(GradientStudyConfig(**settings)).record
+    some = run_gradient_study(GradientStudyConfig(**settings, parameters=chosen)).record
+    # The names follow the flattened gradient (the env's leaf order), not the order asked.
+    assert some["parameter_names"] == [name for name in every["parameter_names"] if name in chosen]
+    full = dict(zip(every["parameter_names"], every["reference"]["gradient"]))
+    # Each entry is a derivative of the same loss, by the same reference, selected differently.
+    expected = [full[name] for name in some["parameter_names"]]
+    np.testing.assert_allclose(some["reference"]["gradient"], expected, rtol=1e-9, atol=0)

@@ -34,6 +34,7 @@ from ..gradients import reference_integrator, selection_spec, with_adjoint, with
 from ..integrate import Integrator, describe_solver
 from .convergence import convergence_orders
 from .figures import plot_gradient_work_precision
+from .parameters import check_parameter_names, parameter_names, parameter_where
 from .recording import PLOT_HINT, environment_record, matplotlib_available, write_record
 from .recording import write_csv as write_rows
 from .scenes import SCENES, make_scene
@@ -261,8 +262,9 @@ class GradientStudyConfig:
     - `horizon`: env steps of the rollout; `seed`: draws the initial state from
       `env.initial` and the actions from the action space, unless `initial_state`,
       `actions` are given.
-    - `parameters`: names of `env.dynamics` fields to differentiate with respect to
-      (`None`: all of them, the physical parameters).
+    - `parameters`: names of fields of `env.dynamics` (or of a friction add-on) to
+      differentiate with respect to (`None`: all of them, the physical parameters); the
+      record's `parameter_names` lists them in the env's leaf order, the gradient's.
     - `cost`: the loss of the trajectory `ys` (default `mean_squared_state`).
     - `mode`, `repeats`, `reference_rtol`: as in `gradient_work_precision`. Forward mode
       by default: with a handful of parameters it is the cheaper exact mode.
@@ -312,40 +314,6 @@ class GradientStudyConfig:
         return cls(**settings)
 
 
-def _physical_parameters(env: AbstractEnv) -> tuple[Any, ...]:
-    """Where the physical parameters live: the dynamics, and a friction add-on's coefficients."""
-    return (env.dynamics, *getattr(env, "friction", ()))
-
-
-def _parameter_where(env: AbstractEnv, parameters: tuple[str, ...] | None) -> Callable[[AbstractEnv], Any]:
-    if parameters is None:
-        return _physical_parameters if getattr(env, "friction", ()) else lambda env: env.dynamics
-    owner = {name: i for i, part in enumerate(_physical_parameters(env)) for name in _field_names(part)}
-    return lambda env: tuple(getattr(_physical_parameters(env)[owner[name]], name) for name in parameters)
-
-
-def _field_names(module) -> list[str]:
-    return [field.name for field in dataclasses.fields(module)]
-
-
-def _parameter_names(env: AbstractEnv, where: Callable[[AbstractEnv], Any], parameters) -> list[str]:
-    """One name per differentiated element, in the order of the flattened gradient."""
-    names = []
-    for path, leaf in jax.tree_util.tree_flatten_with_path(where(env))[0]:
-        if not eqx.is_inexact_array(leaf):
-            continue
-        if parameters is not None:
-            name = parameters[path[0].idx]
-        elif where is _physical_parameters:
-            # `(dynamics, friction, ...)`: the field's path within its part.
-            name = jax.tree_util.keystr(path[1:]).lstrip(".")
-        else:
-            name = jax.tree_util.keystr(path).lstrip(".")
-        size = int(np.size(leaf))
-        names.extend([name] if size == 1 else [f"{name}[{i}]" for i in range(size)])
-    return names
-
-
 def _describe(function: Callable) -> str:
     """A function's name and the first line of its docstring, for the record."""
     doc = (function.__doc__ or "").strip()
@@ -387,10 +355,7 @@ def run_gradient_study(config: GradientStudyConfig) -> GradientStudyResult:
 def _run_gradient_study(config: GradientStudyConfig) -> GradientStudyResult:
     env = make_scene(config.scene, **config.scene_kwargs)
     if config.parameters is not None:
-        fields = {name for part in _physical_parameters(env) for name in _field_names(part)}
-        unknown = [name for name in config.parameters if name not in fields]
-        if unknown:
-            raise ValueError(f"{config.scene} has no physical parameters {unknown}; it has {sorted(fields)}")
+        check_parameter_names(env, config.parameters, config.scene)
     initial_key, action_key = jr.split(jr.key(config.seed))
     if config.initial_state is None:
         y0 = env.initial(key=initial_key).y
@@ -403,7 +368,7 @@ def _run_gradient_study(config: GradientStudyConfig) -> GradientStudyResult:
         if actions.shape[0] != config.horizon:
             raise ValueError(f"actions has {actions.shape[0]} steps, horizon is {config.horizon}")
     sweeps = config.sweeps or default_gradient_sweeps()
-    where = _parameter_where(env, config.parameters)
+    where = parameter_where(env, config.parameters)
     settings = [(sweep, integrator) for sweep in sweeps for _, integrator in sweep.integrators()]
     independent, solver = None, "dopri8 (diffrax), PIDController, atol = rtol / 100, forward mode"
     floor_estimate = "|g_check - g| / |g|, g_check at 10 rtol and dtmax = dt / 4"
@@ -450,7 +415,7 @@ def _run_gradient_study(config: GradientStudyConfig) -> GradientStudyResult:
         "dt": float(env.dt),
         "initial_state": np.asarray(y0).tolist(),
         "actions": np.asarray(actions).tolist(),
-        "parameter_names": _parameter_names(env, where, config.parameters),
+        "parameter_names": parameter_names(env, where),
         "reference": {"solver": solver, **reference, "floor_estimate": floor_estimate},
         "environment": environment_record(),
     }
