@@ -2,7 +2,7 @@
 
     python -m benchmarks gym_vector                 # all five ids, N = 1024 and 16384, float64 and float32
     python -m benchmarks gym_vector --quick         # fewer steps and repeats, N = 1024
-    python -m benchmarks.gym_vector --ids CartPole-v1 --num-envs 1024 [--dispatch inline] [--out DIR]
+    python -m benchmarks.gym_vector --ids CartPole-v1 --num-envs 1024 [--out DIR]   # async and inline, each in a process
 
 For each registered id, number of envs N and dtype, three vector envs step the same
 pre-drawn random actions (sampled from the action space, seed 0; episodes end and restart
@@ -129,8 +129,9 @@ def main(argv=None) -> None:
     if args.dispatch is None:
         write(each_dispatch(argv if argv is not None else sys.argv[1:]), output)
         return
-    if args.dispatch == "inline":
-        jax.config.update("jax_cpu_enable_async_dispatch", False)  # before JAX's first computation
+    if jax.config.values["jax_cpu_enable_async_dispatch"] != (args.dispatch == "async"):
+        # Set after `import lerax_like` started JAX's CPU client, the setting would do nothing.
+        raise SystemExit(f"--dispatch {args.dispatch}: run through each_dispatch (no --dispatch), which sets it first")
 
     header = {
         "date_utc": datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%d %H:%M"),
@@ -159,7 +160,12 @@ def each_dispatch(argv: list[str]) -> list[dict]:
     for dispatch in DISPATCH:
         with tempfile.TemporaryDirectory() as folder:
             output = Path(folder) / "gym_vector.csv"
-            command = [sys.executable, "-m", "benchmarks.gym_vector", *argv, "--dispatch", dispatch, "--output", str(output)]
+            # JAX reads the setting when it starts its CPU client, which importing lerax_like
+            # does: the child sets it before importing this module (JAX 0.10 does not read it
+            # from the environment).
+            setting = f"import jax; jax.config.update('jax_cpu_enable_async_dispatch', {dispatch == 'async'}); "
+            runner = setting + "import runpy; runpy.run_module('benchmarks.gym_vector', run_name='__main__')"
+            command = [sys.executable, "-c", runner, *argv, "--dispatch", dispatch, "--output", str(output)]
             subprocess.run(command, check=True)
             with output.open() as file:
                 rows += list(csv.DictReader(file))

@@ -15,7 +15,8 @@ the median run of each. PyTorch runs on one thread (the machine is shared; the s
 Beside it, the env alone, interleaved the same way: steps per second of random actions
 through each `VecEnv` (`step_async`/`step_wait`, SB3's infos, autoreset) at n_envs = 8 and
 256, in this process (JAX's default asynchronous CPU dispatch) and in a second process with
-`JAX_CPU_ENABLE_ASYNC_DISPATCH=false` (each computation runs in the calling thread).
+`jax.config.update("jax_cpu_enable_async_dispatch", False)` set before lerax_like is imported
+(each computation runs in the calling thread), where PPO is timed again, both kinds interleaved.
 Writes sb3_vector.json under `--out` (default benchmarks/results, or results/quick with --quick).
 """
 
@@ -28,9 +29,11 @@ import statistics
 import subprocess
 import sys
 import time
+from typing import Any
 from pathlib import Path
 
 import gymnasium
+import jax
 import numpy as np
 
 import lerax_like
@@ -90,14 +93,19 @@ def throughputs(rounds: int, repeats: int) -> dict[str, list[float]]:
     return speeds
 
 
-def inline_throughputs(rounds: int, repeats: int) -> dict[str, list[float]]:
-    """`throughputs` in a process of its own with JAX's CPU dispatch inline (a setting read
-    when JAX starts its CPU client, so not one this process can change)."""
+# JAX reads `jax_cpu_enable_async_dispatch` when it starts its CPU client, and importing
+# lerax_like starts it; JAX 0.10 does not read the flag from the environment
+# (JAX_CPU_ENABLE_ASYNC_DISPATCH=false leaves it True). So the inline child sets it first.
+_INLINE = ("import jax; jax.config.update('jax_cpu_enable_async_dispatch', False); import runpy; "
+           "runpy.run_module('benchmarks.sb3_vector', run_name='__main__')")
+
+
+def inline_child(*arguments: str) -> Any:
+    """What this script prints last with `arguments`, run in a process of its own with JAX's
+    CPU dispatch inline (each computation in the calling thread)."""
     completed = subprocess.run(
-        [sys.executable, "-m", "benchmarks.sb3_vector", "--throughput-only", "--rounds", str(rounds),
-         "--repeats", str(repeats)],
-        capture_output=True, text=True, check=True, cwd=Path(__file__).resolve().parent.parent,
-        env={**os.environ, "JAX_CPU_ENABLE_ASYNC_DISPATCH": "false"},
+        [sys.executable, "-c", _INLINE, *arguments], capture_output=True, text=True, check=True,
+        cwd=Path(__file__).resolve().parent.parent,
     )
     return json.loads(completed.stdout.strip().splitlines()[-1])
 
@@ -113,6 +121,7 @@ def main(argv=None) -> None:
     parser.add_argument("--rounds", type=int, default=None, help="interleaved rounds (default 3, 1 with --quick)")
     parser.add_argument("--repeats", type=int, default=None, help="repeats of each env loop (fastest kept)")
     parser.add_argument("--throughput-only", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--train-only", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--out", type=Path, default=None, help="folder (default: benchmarks/results[/quick])")
     args = parser.parse_args(argv)
     rounds = args.rounds or (1 if args.quick else 3)
@@ -123,6 +132,16 @@ def main(argv=None) -> None:
     timesteps = args.timesteps or (4_000 if args.quick else 40_000)
     order = [kind for index in range(rounds)
              for kind in (("gymnasium", "lerax_like") if index % 2 == 0 else ("lerax_like", "gymnasium"))]
+    if args.train_only:
+        import torch
+
+        torch.set_num_threads(1)
+        assert not jax.config.values["jax_cpu_enable_async_dispatch"], "the inline child runs with async dispatch"
+        runs = {"gymnasium": [], "lerax_like": []}
+        for kind in order:
+            runs[kind].append(train(kind, timesteps))
+        print(json.dumps(runs))
+        return
     output = (args.out or results_dir(args.quick)) / "sb3_vector.json"
 
     import stable_baselines3
@@ -137,7 +156,14 @@ def main(argv=None) -> None:
         print(f"{kind:10s} {timesteps} steps in {run['seconds']:.1f} s, mean return {run['mean_return']:.1f} "
               f"(load {os.getloadavg()[0]:.1f})", flush=True)
 
-    speeds = {"async": throughputs(rounds, repeats), "inline": inline_throughputs(rounds, repeats)}
+    inline_runs = inline_child("--train-only", "--rounds", str(rounds), "--timesteps", str(timesteps))
+    for kind, kind_runs in inline_runs.items():
+        print(f"{kind:10s} {timesteps} steps in {min(run['seconds'] for run in kind_runs):.1f} s (fastest), "
+              "JAX's dispatch inline", flush=True)
+    speeds = {
+        "async": throughputs(rounds, repeats),
+        "inline": inline_child("--throughput-only", "--rounds", str(rounds), "--repeats", str(repeats)),
+    }
     for dispatch, by_kind in speeds.items():
         for n_envs in (8, 256):
             print(f"env steps/s at n_envs={n_envs}, {dispatch} dispatch: SB3 DummyVecEnv "
@@ -173,6 +199,14 @@ def main(argv=None) -> None:
         "mean_return": returns,
         "return_ratio_lerax_like_vs_sb3": round(returns["lerax_like"] / returns["gymnasium"], 3),
         "wall_time_ratio_lerax_like_vs_sb3": round(fastest["lerax_like"] / fastest["gymnasium"], 3),
+        "inline_dispatch_runs": inline_runs,
+        "inline_wall_time_ratio_lerax_like_vs_sb3": _ratio(
+            [run["seconds"] for run in inline_runs["lerax_like"]], [run["seconds"] for run in inline_runs["gymnasium"]], min
+        ),
+        "inline_median_wall_time_ratio_lerax_like_vs_sb3": _ratio(
+            [run["seconds"] for run in inline_runs["lerax_like"]],
+            [run["seconds"] for run in inline_runs["gymnasium"]], statistics.median,
+        ),
         "median_wall_time_ratio_lerax_like_vs_sb3": _ratio(seconds["lerax_like"], seconds["gymnasium"], statistics.median),
         "env_steps_per_s": throughput,
         "env_steps_per_s_rounds": speeds,
@@ -184,7 +218,9 @@ def main(argv=None) -> None:
     output.write_text(json.dumps(result, indent=2) + "\n")
     print(json.dumps({key: result[key] for key in ("mean_return", "fastest_seconds", "return_ratio_lerax_like_vs_sb3",
                                                     "wall_time_ratio_lerax_like_vs_sb3",
-                                                    "median_wall_time_ratio_lerax_like_vs_sb3", "env_speedup",
+                                                    "median_wall_time_ratio_lerax_like_vs_sb3",
+                                                    "inline_wall_time_ratio_lerax_like_vs_sb3",
+                                                    "inline_median_wall_time_ratio_lerax_like_vs_sb3", "env_speedup",
                                                     "load_average_after")}))
     print(f"wrote {output}")
 
