@@ -69,7 +69,9 @@ def solver_facts(solver: diffrax.AbstractSolver) -> SolverFacts:
         fsal = bool(tableau.fsal)
     else:
         stages = next((n for cls, n in _STAGES_WITHOUT_TABLEAU.items() if isinstance(solver, cls)), None)
-        error_estimate = _steps_give_an_error_estimate(solver)
+        # diffrax declares a solver that returns error estimates an `AbstractAdaptiveSolver`;
+        # an undeclared one is asked by a step.
+        error_estimate = isinstance(solver, diffrax.AbstractAdaptiveSolver) or _steps_give_an_error_estimate(solver)
         fsal = False
     per_step = None if stages is None or implicit else stages - int(fsal)
     counted = per_step is not None
@@ -92,10 +94,13 @@ def _steps_give_an_error_estimate(solver: diffrax.AbstractSolver) -> bool:
         # Outside a solve there is no controller to lend its tolerances.
         solver = eqx.tree_at(lambda s: s.root_finder, solver, fixed_step_root_finder())
     term = ProjectedODETerm(lambda t, y, args: jnp.stack([y[1], -y[0]]), velocity_indices=(1,))
-    y0 = jnp.ones(2)
-    t0, t1 = jnp.asarray(0.0), jnp.asarray(0.1)
 
     def probe():
+        # Made inside the abstract trace, so that nothing is computed and JAX's backend is
+        # not started: `import lerax_like` builds the presets, and JAX options that are
+        # read when the backend starts (its CPU dispatch) must still be settable after it.
+        y0 = jnp.ones(2)
+        t0, t1 = jnp.asarray(0.0), jnp.asarray(0.1)
         state = solver.init(term, t0, t1, y0, None)
         return solver.step(term, t0, t1, y0, None, state, made_jump=False)[1]
 
