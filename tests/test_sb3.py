@@ -6,6 +6,7 @@ env (equal observations, bit for bit), for every id over `lerax_like`'s single e
 """
 
 import os
+import subprocess
 import sys
 
 import gymnasium
@@ -172,3 +173,39 @@ def test_missing_sb3_gets_an_install_hint(monkeypatch):
     monkeypatch.delattr(lerax_like.sb3, "_vec_env", raising=False)
     with pytest.raises(ImportError, match=r"lerax_like\[sb3\]"):
         lerax_like.sb3.make_vec_env("lerax_like/CartPole-v1", n_envs=2)
+
+
+_DISPATCH = """
+import jax
+from jax._src import xla_bridge
+import lerax_like
+import lerax_like.sb3
+started_by_import = xla_bridge.backends_are_initialized()
+if {jax_first}:
+    jax.numpy.ones(1).block_until_ready()  # the process's own JAX work, before the VecEnv
+venv = lerax_like.sb3.make_vec_env("lerax_like/CartPole-v1", n_envs=2, seed=0{keywords})
+venv.reset()
+venv.step(venv.action_space.sample()[None].repeat(2, 0))
+print(started_by_import, jax.config.values["jax_cpu_enable_async_dispatch"])
+"""
+
+
+@pytest.mark.parametrize(
+    ("jax_first", "keywords", "async_dispatch"),
+    [(False, "", False), (False, ", inline_dispatch=False", True), (True, "", True)],
+    ids=["default", "opted-out", "jax-started-first"],
+)
+def test_make_vec_env_makes_jax_dispatch_inline_only_before_jax_starts(jax_first, keywords, async_dispatch):
+    # A fresh process, as a user's script: importing lerax_like does not start JAX's CPU
+    # client; the VecEnv then makes its dispatch inline unless told not to, and leaves the
+    # flag alone once JAX has started (it would no longer be what the client does).
+    code = _DISPATCH.format(jax_first=jax_first, keywords=keywords)
+    completed = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    started_by_import, flag = completed.stdout.split()
+    assert started_by_import == "False"
+    assert flag == str(async_dispatch)
+
+
+def test_inline_dispatch_must_be_a_bool():
+    with pytest.raises(ValueError, match="inline_dispatch must be True or False, got 'yes'"):
+        lerax_like.sb3.make_vec_env("lerax_like/CartPole-v1", n_envs=1, inline_dispatch="yes")

@@ -5,6 +5,7 @@ from collections.abc import Sequence
 from typing import Any
 
 import gymnasium
+import jax
 import numpy as np
 from gymnasium.utils import seeding
 from stable_baselines3.common.monitor import Monitor
@@ -110,6 +111,23 @@ def _view_class(env_id: str) -> type[EnvView]:
     return type(f"{vector_class.__name__}View", (EnvView,), {"__module__": __name__, **attributes})
 
 
+def inline_cpu_dispatch() -> bool:
+    """Make JAX run its CPU computations in the calling thread, for the whole process, if
+    JAX has not started its CPU client yet; whether its dispatch is inline now.
+
+    JAX reads `jax_cpu_enable_async_dispatch` once, when it starts the client (`import
+    lerax_like` does not start it). Once started with asynchronous dispatch, the client
+    keeps it, and this changes nothing: the flag is left as it is rather than set to a
+    value the client does not follow.
+    """
+    from jax._src import xla_bridge  # JAX has no public way to ask whether its client has started
+
+    started = getattr(xla_bridge, "backends_are_initialized", lambda: True)()
+    if not started:
+        jax.config.update("jax_cpu_enable_async_dispatch", False)
+    return not jax.config.values["jax_cpu_enable_async_dispatch"]
+
+
 _VIEW_CLASSES = {env_id: _view_class(env_id) for env_id in SPECS}
 # Found by name, so that pickle finds them (a VecEnv with its views pickles).
 __getattr__ = generated_names(__name__, {cls.__name__: cls for cls in _VIEW_CLASSES.values()})
@@ -148,6 +166,15 @@ class CompiledVecEnv(VecEnv):
 
     `render_mode` is None, `"rgb_array"` (SB3's `render()` tiles the envs' frames) or
     `"human"` (every reset and step shows the envs, tiled in one pygame window).
+
+    `inline_dispatch` (True by default) makes JAX run its CPU computations in the calling
+    thread (`jax_cpu_enable_async_dispatch` False) if JAX has not started its CPU client
+    yet, as it has not when this env is the process's first JAX work (`inline_cpu_dispatch`).
+    Every step waits for its result at once, so JAX's default asynchronous dispatch
+    only adds a hand-off to another thread and back, which at 8 envs costs as much as the
+    step itself: this is what makes the VecEnv as fast as SB3's `DummyVecEnv` at 8 envs
+    (docs/performance.md). The setting is JAX's, for the whole process, and changes no
+    number; False leaves it as it is.
     """
 
     # The vector env's single action space, as `to_gymnasium_space` builds it (SB3 declares any `Space`).
@@ -161,8 +188,13 @@ class CompiledVecEnv(VecEnv):
         max_episode_steps: int | None = None,
         render_mode: str | None = None,
         dtype: str = "float64",
+        inline_dispatch: bool = True,
         **scene_kwargs: Any,
     ):
+        if not isinstance(inline_dispatch, bool):
+            raise ValueError(f"inline_dispatch must be True or False, got {inline_dispatch!r}")
+        if inline_dispatch:  # before anything starts JAX's CPU client
+            inline_cpu_dispatch()
         if env_id not in SPECS:
             raise ValueError(f"env_id must be one of {tuple(SPECS)}, got {env_id!r}")
         if render_mode not in _RENDER_MODES:
@@ -353,6 +385,7 @@ def make_vec_env(
     monitor_kwargs: dict[str, Any] | None = None,
     wrapper_kwargs: dict[str, Any] | None = None,
     dtype: str = "float64",
+    inline_dispatch: bool = True,
 ) -> VecEnv:
     """See `lerax_like.sb3.make_vec_env`."""
     given = {"wrapper_class": wrapper_class, "wrapper_kwargs": wrapper_kwargs, "vec_env_cls": vec_env_cls,
@@ -367,7 +400,7 @@ def make_vec_env(
     if unknown:
         raise ValueError(f"monitor_kwargs may only hold info_keywords (episode statistics are VecMonitor's), got {sorted(unknown)}")
     kwargs = {"render_mode": "rgb_array", **(env_kwargs or {})}
-    venv = CompiledVecEnv(env_id, n_envs, dtype=dtype, **kwargs)
+    venv = CompiledVecEnv(env_id, n_envs, dtype=dtype, inline_dispatch=inline_dispatch, **kwargs)
     if seed is not None:
         venv.action_space.seed(seed + start_index)
     venv.seed(seed)
@@ -378,4 +411,4 @@ def make_vec_env(
     return MonitoredVecEnv(venv, filename=filename, **monitor_kwargs)
 
 
-__all__ = ["CompiledVecEnv", "EnvView", "MonitoredVecEnv", "make_vec_env"]
+__all__ = ["CompiledVecEnv", "EnvView", "MonitoredVecEnv", "inline_cpu_dispatch", "make_vec_env"]
