@@ -559,10 +559,17 @@ def sb3_vector(folder, link):
          ["SB3's `make_vec_env` (DummyVecEnv)", f"{returns['gymnasium']:g}", f"{seconds['gymnasium']:.1f}"]],
     )
     median = data.get("median_wall_time_ratio_lerax_like_vs_sb3")
+    opted_out = data.get("async_wall_time_ratio_lerax_like_vs_sb3")
     lines += [
         f"Return ratio {data['return_ratio_lerax_like_vs_sb3']:.2f}, wall-time ratio "
         f"{data['wall_time_ratio_lerax_like_vs_sb3']:.2f} (lerax_like / SB3, fastest runs"
-        + (f"; {median:.2f} by the median runs" if median is not None else "") + "). The VecEnvs alone, random actions: "
+        + (f"; {median:.2f} by the median runs" if median is not None else "")
+        + (f"; {opted_out:.2f} with `inline_dispatch=False`, JAX's asynchronous dispatch" if opted_out is not None else "")
+        + ")."
+        + (f" The VecEnv's step as PPO calls it: {data['median_step_us_in_ppo']['lerax_like']:g} us against "
+           f"{data['median_step_us_in_ppo']['gymnasium']:g} us (median runs)."
+           if "median_step_us_in_ppo" in data else "")
+        + " The VecEnvs alone, random actions: "
         f"{speed['lerax_like_n8']:,} against {speed['gymnasium_n8']:,} steps/s at 8 envs, "
         f"{speed['lerax_like_n256']:,} against {speed['gymnasium_n256']:,} at 256.", "",
     ]

@@ -47,7 +47,9 @@ from benchmarks._floors import FloorVectorEnv
 from lerax_like.gym import SPECS
 
 
-NAMES = tuple(spec.name for spec in SPECS.values())
+# The ids that stand for Gymnasium's envs, which have a hand-written floor and a Gymnasium peer
+# (the others, CartPoleContinuous-v0 and the like, have neither).
+NAMES = tuple(spec.name for spec in SPECS.values() if spec.stands_for_gymnasium)
 DISPATCH = ("async", "inline")
 
 
@@ -160,9 +162,9 @@ def each_dispatch(argv: list[str]) -> list[dict]:
     for dispatch in DISPATCH:
         with tempfile.TemporaryDirectory() as folder:
             output = Path(folder) / "gym_vector.csv"
-            # JAX reads the setting when it starts its CPU client, which importing lerax_like
-            # does: the child sets it before importing this module (JAX 0.10 does not read it
-            # from the environment).
+            # JAX reads the setting once, when it starts its CPU client (JAX 0.10 does not
+            # read it from the environment): the child sets it before this module does any
+            # JAX work.
             setting = f"import jax; jax.config.update('jax_cpu_enable_async_dispatch', {dispatch == 'async'}); "
             runner = setting + "import runpy; runpy.run_module('benchmarks.gym_vector', run_name='__main__')"
             command = [sys.executable, "-c", runner, *argv, "--dispatch", dispatch, "--output", str(output)]
