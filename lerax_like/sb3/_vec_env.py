@@ -111,9 +111,9 @@ def _view_class(env_id: str) -> type[EnvView]:
     return type(f"{vector_class.__name__}View", (EnvView,), {"__module__": __name__, **attributes})
 
 
-def inline_cpu_dispatch() -> bool:
+def inline_cpu_dispatch() -> None:
     """Make JAX run its CPU computations in the calling thread, for the whole process, if
-    JAX has not started its CPU client yet; whether its dispatch is inline now.
+    JAX has not started its CPU client yet.
 
     JAX reads `jax_cpu_enable_async_dispatch` once, when it starts the client (`import
     lerax_like` does not start it). Once started with asynchronous dispatch, the client
@@ -125,7 +125,6 @@ def inline_cpu_dispatch() -> bool:
     started = getattr(xla_bridge, "backends_are_initialized", lambda: True)()
     if not started:
         jax.config.update("jax_cpu_enable_async_dispatch", False)
-    return not jax.config.values["jax_cpu_enable_async_dispatch"]
 
 
 _VIEW_CLASSES = {env_id: _view_class(env_id) for env_id in SPECS}
