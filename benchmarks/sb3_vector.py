@@ -23,6 +23,7 @@ Writes sb3_vector.json under `--out` (default benchmarks/results, or results/qui
 
 import argparse
 import datetime
+import gc
 import json
 import os
 import platform
@@ -61,6 +62,7 @@ def train(kind: str, total_timesteps: int) -> dict:
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.evaluation import evaluate_policy
 
+    gc.collect()  # each run starts with no garbage of the runs before it
     start = time.perf_counter()
     venv = make(kind, 8, 0)
     made = time.perf_counter()
@@ -239,6 +241,13 @@ def main(argv=None) -> None:
             [run["seconds"] for run in async_runs["gymnasium"]], statistics.median,
         ),
         "median_wall_time_ratio_lerax_like_vs_sb3": _ratio(seconds["lerax_like"], seconds["gymnasium"], statistics.median),
+        # Each round's two runs side by side (the same stretch of the machine's load), then the median round.
+        "paired_wall_time_ratios_lerax_like_vs_sb3": [
+            round(ours / theirs, 3) for ours, theirs in zip(seconds["lerax_like"], seconds["gymnasium"])
+        ],
+        "median_paired_wall_time_ratio_lerax_like_vs_sb3": round(
+            statistics.median(ours / theirs for ours, theirs in zip(seconds["lerax_like"], seconds["gymnasium"])), 3
+        ),
         "env_steps_per_s": throughput,
         "env_steps_per_s_rounds": speeds,
         "env_speedup": speedups,
@@ -250,6 +259,7 @@ def main(argv=None) -> None:
     print(json.dumps({key: result[key] for key in ("mean_return", "fastest_seconds", "return_ratio_lerax_like_vs_sb3",
                                                     "wall_time_ratio_lerax_like_vs_sb3",
                                                     "median_wall_time_ratio_lerax_like_vs_sb3",
+                                                    "median_paired_wall_time_ratio_lerax_like_vs_sb3",
                                                     "async_wall_time_ratio_lerax_like_vs_sb3",
                                                     "async_median_wall_time_ratio_lerax_like_vs_sb3", "env_speedup",
                                                     "load_average_after")}))

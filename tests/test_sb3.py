@@ -10,6 +10,7 @@ import subprocess
 import sys
 
 import gymnasium
+import jax
 import numpy as np
 import pytest
 
@@ -43,7 +44,11 @@ def test_sb3_check_env_passes_on_the_single_env(env_id):
     env.close()
 
 
-def test_same_step_autoreset_matches_dummy_vec_env_on_gymnasium_cartpole():
+@pytest.mark.parametrize("hand_out_generators_at", [None, 150])
+def test_same_step_autoreset_matches_dummy_vec_env_on_gymnasium_cartpole(hand_out_generators_at):
+    # Our VecEnv draws each env's next start ahead, when its episode starts; once its
+    # generators are handed out (`get_attr("np_random")`), it draws a start when the env
+    # restarts. Either way, the numbers and the generators' states are DummyVecEnv's.
     num_envs, steps = 6, 400
     kwargs = {"max_episode_steps": 60}
     ours = lerax_like.sb3.make_vec_env("lerax_like/CartPole-v1", n_envs=num_envs, seed=11, env_kwargs=kwargs)
@@ -56,6 +61,10 @@ def test_same_step_autoreset_matches_dummy_vec_env_on_gymnasium_cartpole():
     rng = np.random.default_rng(0)
     counts = {"terminated": 0, "truncated": 0}
     for step in range(steps):
+        if step == hand_out_generators_at:
+            generators, ref_generators = ours.get_attr("np_random"), reference.get_attr("np_random")
+            for generator, ref_generator in zip(generators, ref_generators, strict=True):
+                assert generator.bit_generator.state == ref_generator.bit_generator.state
         actions = _balance(ref_observation, rng)
         observation, reward, done, infos = ours.step(actions)
         ref_observation, ref_reward, ref_done, ref_infos = reference.step(actions)
@@ -79,6 +88,64 @@ def test_same_step_autoreset_matches_dummy_vec_env_on_gymnasium_cartpole():
                 counts["truncated" if info["TimeLimit.truncated"] else "terminated"] += 1
             assert info["solver_ok"]
     assert counts["terminated"] > 10 and counts["truncated"] > 10, counts  # both ends, and their restarts
+
+
+class _NoisyCartPole(lerax_like.CartPole):
+    """CartPole seen through noise drawn with the observation's key: a stochastic scene."""
+
+    stochastic = True
+
+    def observation(self, state, *, key):
+        return state.y + 1e-3 * jax.random.normal(key, state.y.shape)
+
+
+def test_a_stochastic_scene_restarts_in_the_step_as_in_a_second_call():
+    # The restart in the step (starts drawn ahead) against the restart in a call of its
+    # own (generators handed out): the same starts, and the same keys for the noise.
+    def run(hand_out_generators):
+        venv = lerax_like.sb3.make_vec_env("lerax_like/CartPole-v1", n_envs=4, seed=3)
+        venv.venv.scene = _NoisyCartPole(max_episode_steps=12)
+        if hand_out_generators:
+            venv.get_attr("np_random")
+        results = [venv.reset()]
+        rng = np.random.default_rng(1)
+        for _ in range(40):
+            observation, reward, done, infos = venv.step(rng.integers(0, 2, size=4))
+            terminal = [info.get("terminal_observation") for info in infos]
+            results.append((observation, reward, done, terminal, venv.venv.state.T))  # (num_envs, n)
+        return results
+
+    ahead, after = run(False), run(True)
+    np.testing.assert_array_equal(ahead[0], after[0])
+    restarts = 0
+    for step, (ours, theirs) in enumerate(zip(ahead[1:], after[1:])):
+        for value, reference in zip(ours, theirs):
+            if isinstance(value, list):
+                for one, other in zip(value, reference):
+                    assert (one is None) == (other is None), step
+                    if one is not None:
+                        np.testing.assert_array_equal(one, other, err_msg=f"step {step}")
+            else:
+                np.testing.assert_array_equal(value, reference, err_msg=f"step {step}")
+        restarts += int(ours[2].sum())
+        noise = ours[0] - ours[4].astype(np.float32)
+        assert 1e-5 < np.max(np.abs(noise)) < 1e-2  # the observations are noisy, fresh ones too
+    assert restarts >= 8
+
+
+def test_an_inadmissible_action_in_an_int64_array_is_refused_and_nothing_steps():
+    # An int64 array of the envs' shape goes to the step unchecked; the step checks it.
+    venv = lerax_like.sb3.make_vec_env("lerax_like/CartPole-v1", n_envs=3, seed=0)
+    twin = lerax_like.sb3.make_vec_env("lerax_like/CartPole-v1", n_envs=3, seed=0)
+    venv.reset(), twin.reset()
+    for bad in (np.array([0, 2, 1]), np.array([-1, 0, 1])):
+        index = int(np.flatnonzero((bad < 0) | (bad > 1))[0])
+        with pytest.raises(ValueError, match=rf"actions\[{index}\] = {bad[index]} is not in Discrete\(2\)"):
+            venv.step(bad)
+    for _ in range(30):
+        actions = np.array([1, 0, 1])
+        for one, other in zip(venv.step(actions)[:3], twin.step(actions)[:3]):
+            np.testing.assert_array_equal(one, other)
 
 
 @pytest.mark.parametrize("env_id", ALL_IDS)

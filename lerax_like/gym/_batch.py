@@ -16,7 +16,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..env import AbstractEnv
-from ._compiled import Compiled, SplitScene, float64, to_device, to_host
+from ._compiled import Compiled, SplitScene, VecStep, float64, to_device, to_host, to_numpy, unpack_vec_step
 from ._inputs import check_state
 
 
@@ -138,7 +138,7 @@ class Batch:
     @property
     def state(self) -> np.ndarray | None:
         """The states, shape `(num_envs, n)` (None before the first reset): a copy."""
-        return None if self._y is None else np.array(self._y)
+        return None if self._y is None else to_numpy(self._y)
 
     @state.setter
     def state(self, value) -> None:
@@ -152,12 +152,12 @@ class Batch:
     @property
     def steps(self) -> np.ndarray | None:
         """The env steps taken in each env's episode."""
-        return None if self._steps is None else np.array(self._steps)
+        return None if self._steps is None else to_numpy(self._steps)
 
     @property
     def observation(self) -> np.ndarray:
         """The envs' current observations (float32, a copy)."""
-        return np.array(self._current_observation())
+        return to_numpy(self._current_observation())
 
     # -- the moves -----------------------------------------------------------------------
 
@@ -170,7 +170,7 @@ class Batch:
             self._observation, self._key = split.compiled.batch_observe(
                 self.parameters, self._y, self._steps, self._key
             )
-        return np.array(self._observation)
+        return to_numpy(self._observation)
 
     def advance(self, actions: np.ndarray) -> Outcome:
         """Every env steps with its action (checked by the front end: `check_actions`)."""
@@ -204,11 +204,40 @@ class Batch:
             self._y, self._steps, self._observation, self._key = split.compiled.batch_restart(
                 self.parameters, self._y, self._steps, self._key, observation, mask, self._starts
             )
-        return np.array(self._observation)
+        return to_numpy(self._observation)
 
-    def warm_up(self, starts: np.ndarray, actions: np.ndarray, *, fused: bool, restart: bool) -> None:
-        """Compile what a front end will call (`advance`, and `advance_or_restart` if
-        `fused`, `restart` if `restart`) on throwaway states, not in the first step of training."""
+    def advance_then_restart(self, actions: np.ndarray, starts: jax.Array | None) -> VecStep:
+        """Every env steps with its action; given `starts` (one row per env, drawn before
+        the step, on the device: `to_device`), the envs whose episode ended restart from
+        their row in the same call (SB3's same-step autoreset), else they are left ended
+        for `restart`.
+
+        The actions may be unchecked: if one cannot be applied (`VecStep.admissible`
+        False), nothing changes and the front end refuses the step.
+        """
+        split = self._split
+        observation = self._current_observation()
+        with split.precision():
+            y, steps, observation, summary, key = split.compiled.batch_advance_then_restart(
+                self.parameters, self._y, self._steps, actions, self._key, observation, starts
+            )
+        step = unpack_vec_step(summary, observation.shape)
+        if step.admissible:
+            self._y, self._steps, self._observation, self._key = y, steps, observation, key
+        return step
+
+    def to_device(self, states: np.ndarray) -> jax.Array:
+        """A copy of `states` (one row per env) on the device, in the batch's dtype: a
+        start that several steps pass costs no transfer at each."""
+        with self._split.precision():
+            return jnp.array(states, dtype=self.dtype)
+
+    def warm_up(
+        self, starts: np.ndarray, actions: np.ndarray, *, advance: bool = True, fused: bool = False,
+        restart: bool = False, advance_then_restart: bool = False,
+    ) -> None:
+        """Compile what a front end will call (the moves of those names) on throwaway
+        states, not in the first step of training."""
         split = self._split
         with split.precision():
             y = jnp.asarray(starts, dtype=self.dtype)
@@ -216,7 +245,10 @@ class Batch:
             no_restart = np.zeros(self.num_envs, dtype=np.bool_)
             observation, _ = split.compiled.batch_observe(self.parameters, y, steps, self._key)
             arguments = (self.parameters, y, steps, actions, self._key, observation)
-            jax.block_until_ready(split.compiled.batch_advance(*arguments))
+            if advance:
+                jax.block_until_ready(split.compiled.batch_advance(*arguments))
+            if advance_then_restart:
+                jax.block_until_ready(split.compiled.batch_advance_then_restart(*arguments, y))
             if fused:
                 jax.block_until_ready(split.compiled.batch_advance_or_restart(*arguments, no_restart, starts))
             if restart:
@@ -239,12 +271,12 @@ class Batch:
 
     def _take(self, outputs) -> Outcome:
         self._y, self._steps, self._observation, rows, self._key = outputs
-        # np.array (a writable copy) of the observation, not jax.device_get: the latter
-        # costs far more for arrays this small. Every result is a new array.
-        rows = np.asarray(rows)
+        # A writable copy of each (`to_numpy`), not jax.device_get: the latter costs far
+        # more for arrays this small. Every result is a new array.
+        rows = to_numpy(rows)
         flags = rows[1:4] != 0  # one NumPy call for the three flags: host calls dominate a small step
         return Outcome(
-            np.array(self._observation), rows[0].copy(), flags[0], flags[1], flags[2], rows[4].astype(np.int64),
+            to_numpy(self._observation), rows[0], flags[0], flags[1], flags[2], rows[4].astype(np.int64),
             np.ones(self.num_envs, dtype=np.bool_),
         )
 

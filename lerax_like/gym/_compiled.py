@@ -86,6 +86,13 @@ class Compiled(NamedTuple):
     - `batch_restart(parameters, y, steps, key, observation, mask, starts) -> (y, steps,
       observation, key)`: the envs of `mask` restart from `starts` (same-step autoreset,
       a masked reset).
+    - `batch_advance_then_restart(parameters, y, steps, action, key, observation, starts)
+      -> (y, steps, observation, summary, key)`: SB3's same-step autoreset in one call.
+      Every env steps, and those whose episode ended restart from their row of `starts`
+      (drawn before the step), as `batch_restart` of them would (with `starts` None, they
+      are left ended); the key moves on only if some env restarted, as it does when
+      `batch_restart` is called only then. `summary` is what the host reads of the step,
+      one float32 vector (`unpack_vec_step`).
     """
 
     step: Callable
@@ -94,6 +101,7 @@ class Compiled(NamedTuple):
     batch_advance: Callable
     batch_advance_or_restart: Callable
     batch_restart: Callable
+    batch_advance_then_restart: Callable
 
 
 class SplitScene:
@@ -171,6 +179,18 @@ def to_device(value):
         return jax.tree.map(load, value, is_leaf=lambda x: isinstance(x, HostArray))
 
 
+def to_numpy(array: jax.Array) -> np.ndarray:
+    """A NumPy copy of `array`, taken through the buffer protocol where JAX offers it (an
+    array on the CPU; it waits for the array as `np.array` does): this skips the Python
+    layers of `jax.Array.__array__`, which cost as much as the rest of a small step's host
+    work. Elsewhere (an accelerator's array), `np.array`."""
+    try:
+        view = memoryview(array)  # type: ignore[arg-type]  # jax.Array does not declare the protocol
+    except Exception:  # no buffer: `np.array` copies it, or raises what is wrong with it
+        return np.array(array)
+    return np.array(view)
+
+
 def pack_step(y: np.ndarray, steps: int, action) -> np.ndarray:
     """The inputs of `Compiled.step` as one float64 array: one host-to-device transfer."""
     return np.concatenate([np.ravel(action), [steps], y], dtype=np.float64)
@@ -186,6 +206,40 @@ class StepOutcome(NamedTuple):
     solver_ok: bool
     solver_steps: int
     action_ok: bool
+
+
+class VecStep(NamedTuple):
+    """`Compiled.batch_advance_then_restart`'s summary, unpacked on the host: what SB3's
+    `VecEnv.step` returns of it, each a new array (or list) of its own."""
+
+    observation: np.ndarray
+    """float32, shape `(num_envs, *observation shape)`: the next episode's first for the envs that restarted."""
+    final_observation: np.ndarray
+    """float32, the step's own observation (before any restart)."""
+    reward: np.ndarray
+    """float32, as SB3's VecEnvs return it."""
+    done: np.ndarray
+    """bool: terminated or truncated."""
+    time_limit: list[bool]
+    """Truncated and not terminated (SB3's `TimeLimit.truncated`)."""
+    solver_ok: list[bool]
+    solver_steps: list[int]
+    admissible: bool
+    """Whether every action could be applied; if not, the front end refuses the step."""
+
+
+def unpack_vec_step(summary: np.ndarray, observation_shape: tuple[int, ...]) -> VecStep:
+    num_envs = observation_shape[0]
+    size = math.prod(observation_shape)
+    # One copy off the device; the parts are views of it, so each is an array of its own.
+    summary = to_numpy(summary)
+    flags = summary[2 * size : -1].reshape(5, num_envs)
+    _, _, time_limit, solver_ok, solver_steps = flags.tolist()
+    return VecStep(
+        summary[:size].reshape(observation_shape), summary[size : 2 * size].reshape(observation_shape),
+        flags[0], flags[1] != 0, [bool(x) for x in time_limit], [bool(x) for x in solver_ok],
+        [int(x) for x in solver_steps], bool(summary[-1]),
+    )
 
 
 def unpack_step(outcome: np.ndarray, state_size: int, observation_size: int) -> StepOutcome:
@@ -331,7 +385,27 @@ def _functions(treedef, static, layout) -> Compiled:
     def batch_restart(parameters, y, steps, key, observation, mask, starts):
         return restart(parameters, y, steps, key, observation, mask, starts)
 
-    return Compiled(step, observe, batch_observe, batch_advance, batch_advance_or_restart, batch_restart)
+    @jax.jit
+    def batch_advance_then_restart(parameters, y, steps, action, key, observation, starts):
+        y, steps, final, (reward, terminated, truncated, info), key = advance_all(
+            parameters, y, steps, action, key, observation
+        )
+        done = terminated | truncated
+        observation = final
+        if starts is not None:  # a second compilation for None, which few callers use
+            y, steps, observation, restarted_key = restart(parameters, y, steps, key, final, done, starts)
+            if key is not None:
+                key = jax.lax.select(jnp.any(done), restarted_key, key)
+        summary = [
+            observation, final, reward, done, truncated & ~terminated, info["solver_ok"], info["solver_steps"],
+            jnp.all(info["action_ok"]),
+        ]
+        return y, steps, observation, jnp.concatenate([jnp.ravel(x).astype(jnp.float32) for x in summary]), key
+
+    return Compiled(
+        step, observe, batch_observe, batch_advance, batch_advance_or_restart, batch_restart,
+        batch_advance_then_restart,
+    )
 
 
 __all__ = [
@@ -340,6 +414,7 @@ __all__ = [
     "HostArray",
     "SplitScene",
     "StepOutcome",
+    "VecStep",
     "build_scene",
     "check_dtype",
     "float64",
@@ -348,5 +423,7 @@ __all__ = [
     "precision",
     "to_device",
     "to_host",
+    "to_numpy",
     "unpack_step",
+    "unpack_vec_step",
 ]

@@ -10,7 +10,7 @@ import numpy as np
 from ..env import AbstractEnv
 from . import _render
 from ._inputs import check_action, check_state
-from ._compiled import SplitScene, build_scene, float64, pack_step, to_device, to_host, unpack_step
+from ._compiled import SplitScene, build_scene, float64, pack_step, to_device, to_host, to_numpy, unpack_step
 from ._spaces import to_gymnasium_space
 from ._specs import GymSpec
 
@@ -121,7 +121,7 @@ class GymnasiumEnv(gymnasium.Env):
             observation, self._jax_key = self._split.compiled.observe(
                 self._split.parameters, self._state, np.int64(0), self._jax_key
             )
-            observation = np.array(observation)
+            observation = to_numpy(observation)
         if self.render_mode == "human":
             self.render()
         return observation, {}
@@ -134,8 +134,8 @@ class GymnasiumEnv(gymnasium.Env):
             outcome, self._jax_key = self._split.compiled.step(
                 self._split.parameters, pack_step(self._state, self._steps, action), self._jax_key
             )
-        # np.asarray, not jax.device_get: the latter costs far more for arrays this small.
-        outcome = unpack_step(np.asarray(outcome), self._state.shape[0], self._observation_size)
+        # `to_numpy`, not jax.device_get: the latter costs far more for arrays this small.
+        outcome = unpack_step(to_numpy(outcome), self._state.shape[0], self._observation_size)
         self._state = outcome.state
         self._steps += 1
         self._last_action = action

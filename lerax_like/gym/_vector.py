@@ -51,6 +51,8 @@ class GymnasiumVectorEnv(VectorEnv):
     Actions are checked on the host: one that cannot be applied (out of range, not an
     integer, not finite) is refused with a `ValueError` naming it and the space.
 
+    The steps are compiled when the env is made (`warm_up=False`: at their first call).
+
     Stepped from Python on a CPU, each step waits for JAX's dispatch thread; with
     `jax.config.update("jax_cpu_enable_async_dispatch", False)`, called before JAX's first
     computation, it runs in the calling thread, which is faster for steps this small.
@@ -74,6 +76,8 @@ class GymnasiumVectorEnv(VectorEnv):
         render_mode: str | None = None,
         dtype: str = "float64",
         autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+        *,
+        warm_up: bool = True,
         **scene_kwargs: Any,
     ):
         dtype = check_dtype(dtype)
@@ -106,17 +110,19 @@ class GymnasiumVectorEnv(VectorEnv):
         self._ended = np.zeros(num_envs, dtype=np.bool_)  # the envs whose episode ended at the last step
         self.last_action: np.ndarray | None = None  # what the renderer draws (Pendulum's torque)
         self._info_mask = np.ones(num_envs, dtype=np.bool_)
-        # Compile the steps now, not in the first step of training.
+        if warm_up:  # compile the steps now, not in the first step of training
+            self.warm_up_moves(
+                fused=self.autoreset_mode == AutoresetMode.NEXT_STEP,
+                restart=self.autoreset_mode != AutoresetMode.NEXT_STEP,
+            )
+
+    def warm_up_moves(self, **moves: bool) -> None:
+        """Compile the batch's moves named True (`Batch.warm_up`) on throwaway states."""
         if isinstance(self.single_action_space, gymnasium.spaces.Discrete):
-            zero = np.full(num_envs, self.single_action_space.start, dtype=np.int64)
+            zero = np.full(self.num_envs, self.single_action_space.start, dtype=np.int64)
         else:
-            zero = np.zeros((num_envs, *self.single_action_space.shape), dtype=dtype)
-        self.batch.warm_up(
-            self.starts(np.random.default_rng(0), None, num_envs),
-            zero,
-            fused=self.autoreset_mode == AutoresetMode.NEXT_STEP,
-            restart=self.autoreset_mode != AutoresetMode.NEXT_STEP,
-        )
+            zero = np.zeros((self.num_envs, *self.single_action_space.shape), dtype=self.dtype)
+        self.batch.warm_up(self.starts(np.random.default_rng(0), None, self.num_envs), zero, **moves)
 
     @property
     def dtype(self) -> str:

@@ -205,19 +205,36 @@ class CompiledVecEnv(VecEnv):
         # own autoreset is not used: this env restarts in its step, through the batch.
         self._vector = GymnasiumVectorEnv(
             spec, num_envs=num_envs, max_episode_steps=max_episode_steps, render_mode=render_mode, dtype=dtype,
-            autoreset_mode=gymnasium.vector.AutoresetMode.SAME_STEP, **scene_kwargs,
+            autoreset_mode=gymnasium.vector.AutoresetMode.SAME_STEP, warm_up=False, **scene_kwargs,
         )
+        self._vector.warm_up_moves(advance=False, advance_then_restart=True)
         self._batch = self._vector.batch
         self.spec = gymnasium.spec(env_id)
         self.max_episode_steps = max_episode_steps
         self._generators: list[np.random.Generator | None] = [None] * num_envs
+        # Each env's next start, drawn ahead (`_draw_ahead`), with a copy on the device, and its
+        # generator's state before that draw; None once the generators are handed out (`generators`).
+        self._next_starts: np.ndarray | None = np.zeros(
+            (num_envs, self._batch.initial_bounds[0].size), dtype=self._batch.dtype
+        )
+        self._next_starts_on_device: jax.Array | None = None
+        self._drawn_from: list[dict[str, Any] | None] = [None] * num_envs
         self._actions: np.ndarray | None = None
+        # The actions a step takes without a check on the host (the step checks them, `step_wait`):
+        # those of the dtype and shape it computes with. In float32, JAX would wrap int64 actions
+        # to int32 before the step saw them, so those are checked on the host.
+        action_space = self._vector.single_action_space
+        if isinstance(action_space, gymnasium.spaces.Discrete):
+            self._unchecked = (np.dtype(np.int64), (num_envs,)) if dtype == "float64" else None
+        else:
+            self._unchecked = (np.dtype(dtype), (num_envs, *action_space.shape))
         self._views = [_VIEW_CLASSES[env_id](self, index) for index in range(num_envs)]
         super().__init__(num_envs, self._vector.single_observation_space, self._vector.single_action_space)
 
     # -- SB3's VecEnv ------------------------------------------------------------------
 
     def reset(self):
+        self._undraw()
         for index, seed in enumerate(self._seeds):
             if seed is not None or self._generators[index] is None:
                 self._generators[index], _ = seeding.np_random(seed)
@@ -228,6 +245,8 @@ class CompiledVecEnv(VecEnv):
         self._reset_seeds()
         self._reset_options()
         self._vector.last_action = None
+        if self._next_starts is not None:
+            self._draw_ahead(range(self.num_envs))
         if self.render_mode == "human":
             self._vector.show()
         return observation
@@ -236,27 +255,55 @@ class CompiledVecEnv(VecEnv):
         self._actions = actions
 
     def step_wait(self):
-        actions = check_actions(self.action_space, self._actions, self.num_envs, self._batch.dtype)
-        outcome = self._batch.advance(actions)
-        observation = outcome.observation
-        reward = outcome.reward.astype(np.float32)
-        done = outcome.terminated | outcome.truncated
-        time_limit = (outcome.truncated & ~outcome.terminated).tolist()
-        # `action_ok` is True for every env: `check_actions` refused an inadmissible action above.
+        actions = self._actions
+        unchecked = self._unchecked
+        if unchecked is None or type(actions) is not np.ndarray or (actions.dtype, actions.shape) != unchecked:
+            actions = check_actions(self.action_space, actions, self.num_envs, self._batch.dtype)
+        step = self._batch.advance_then_restart(actions, self._next_starts_on_device)
+        if not step.admissible:  # nothing has changed
+            check_actions(self.action_space, actions, self.num_envs, self._batch.dtype)  # names the action
+            raise ValueError(f"the actions {actions!r} cannot all be applied in {self.action_space}")
+        observation = step.observation
+        # `action_ok` is True for every env: a step with an inadmissible action is refused above.
         infos = [
             {"solver_ok": ok, "solver_steps": steps, "action_ok": True, "TimeLimit.truncated": limit}
-            for ok, steps, limit in zip(outcome.solver_ok.tolist(), outcome.solver_steps.tolist(), time_limit)
+            for ok, steps, limit in zip(step.solver_ok, step.solver_steps, step.time_limit)
         ]
-        ended = np.flatnonzero(done)
+        ended = np.flatnonzero(step.done)
         if ended.size:
             for index in ended:
-                infos[index]["terminal_observation"] = observation[index].copy()
-            fresh = self._batch.restart(done, self._starts(ended))
-            observation[ended] = fresh[ended]
+                infos[index]["terminal_observation"] = step.final_observation[index].copy()
+            if self._next_starts is not None:  # they restarted in the step, from the starts drawn ahead
+                self._draw_ahead(ended)
+            else:
+                starts = self._vector.starts_each([self._generators[index] for index in ended], [None] * ended.size)
+                fresh = self._batch.restart(step.done, starts)
+                observation[ended] = fresh[ended]
         self._vector.last_action = actions
         if self.render_mode == "human":
             self._vector.show()
-        return observation, reward, done, infos
+        return observation, step.reward, step.done, infos
+
+    # An env's next start is drawn from its generator when its episode starts, not when it
+    # ends: then the step that ends it restarts it in the same compiled call. Each generator
+    # draws only starts, so it draws the same numbers in the same order as `DummyVecEnv`'s
+    # env draws them at its reset. Its state before the draw is kept, and put back before
+    # anything else may draw from it: a reset, or handing the generators out.
+
+    def _draw_ahead(self, indices) -> None:
+        generators = self._generators
+        for index in indices:
+            self._drawn_from[index] = generators[index].bit_generator.state
+        indices = list(indices)
+        # The autoreset of `DummyVecEnv`'s env: no options.
+        self._next_starts[indices] = self._vector.starts_each([generators[index] for index in indices], [None] * len(indices))
+        self._next_starts_on_device = self._batch.to_device(self._next_starts)
+
+    def _undraw(self) -> None:
+        for index, state in enumerate(self._drawn_from):
+            if state is not None:
+                self._generators[index].bit_generator.state = state
+        self._drawn_from = [None] * self.num_envs
 
     def _starts(self, indices) -> np.ndarray:
         """Starts of the envs `indices`, each drawn from its own generator as Gymnasium's env draws it."""
@@ -320,7 +367,14 @@ class CompiledVecEnv(VecEnv):
 
     @property
     def generators(self) -> list[np.random.Generator | None]:
-        """Each env's NumPy generator, from which its starts are drawn."""
+        """Each env's NumPy generator, from which its starts are drawn.
+
+        Once they are handed out, anyone may draw from them, so from then on each env's
+        start is drawn when it restarts (not ahead), and a restart is a second compiled
+        call: the numbers stay `DummyVecEnv`'s."""
+        if self._next_starts is not None:
+            self._undraw()
+            self._next_starts = self._next_starts_on_device = None
         return self._generators
 
     # -- the scene, as the vector env shows it -----------------------------------------
