@@ -229,8 +229,10 @@ class Batch:
     def to_device(self, states: np.ndarray) -> jax.Array:
         """A copy of `states` (one row per env) on the device, in the batch's dtype: a
         start that several steps pass costs no transfer at each."""
+        # A NumPy copy first: `device_put` may share a CPU array's memory, and the caller's
+        # `states` may change; and unlike `jnp.array`, it compiles nothing.
         with self._split.precision():
-            return jnp.array(states, dtype=self.dtype)
+            return jax.device_put(np.array(states, dtype=self.dtype))
 
     def warm_up(
         self, starts: np.ndarray, actions: np.ndarray, *, advance: bool = True, fused: bool = False,
