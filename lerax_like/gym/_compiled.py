@@ -233,12 +233,12 @@ def unpack_vec_step(summary: np.ndarray, observation_shape: tuple[int, ...]) -> 
     size = math.prod(observation_shape)
     # One copy off the device; the parts are views of it, so each is an array of its own.
     summary = to_numpy(summary)
-    flags = summary[2 * size : -1].reshape(5, num_envs)
-    _, _, time_limit, solver_ok, solver_steps = flags.tolist()
+    rows = summary[2 * size : -1].reshape(5, num_envs)
+    flags = rows[1:4] != 0  # done, time limit, solver_ok: one NumPy call, and Python bools by `tolist`
+    time_limit, solver_ok = flags[1:].tolist()
     return VecStep(
         summary[:size].reshape(observation_shape), summary[size : 2 * size].reshape(observation_shape),
-        flags[0], flags[1] != 0, [bool(x) for x in time_limit], [bool(x) for x in solver_ok],
-        [int(x) for x in solver_steps], bool(summary[-1]),
+        rows[0], flags[0], time_limit, solver_ok, rows[4].astype(np.int64).tolist(), bool(summary[-1]),
     )
 
 

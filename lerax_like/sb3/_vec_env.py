@@ -149,10 +149,12 @@ class CompiledVecEnv(VecEnv):
       with the calls of Gymnasium's env: the same seeds give `DummyVecEnv`'s starts;
     - rewards are float32 and observations float32, as `DummyVecEnv` returns them.
 
-    One step is `Batch.advance` (one compiled call of all envs) and, only when some
-    episode ended, `Batch.restart` of those envs ("advance, then restart"); their starts
-    are drawn on the host for them alone. Actions that cannot be applied are refused
-    with a `ValueError` naming them.
+    One step is one compiled call of all envs, restarts included (`Batch.advance_then_restart`):
+    each env's next start is drawn from its generator on the host when its episode starts,
+    so the step that ends the episode restarts the env at once. After `np_random` (or
+    `generators`) has been handed out, anyone may draw from the generators, so from then on
+    a start is drawn when the env restarts, and the restart is a second call. Actions
+    that cannot be applied are refused with a `ValueError` naming them, and nothing steps.
 
     `get_attr`, `set_attr` and `env_method` act on each env's `EnvView`, as `DummyVecEnv`'s
     act on each env: Gymnasium's attributes of the id (`masspole`, `goal_velocity`, ...)
