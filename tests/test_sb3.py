@@ -133,6 +133,33 @@ def test_a_stochastic_scene_restarts_in_the_step_as_in_a_second_call():
     assert restarts >= 8
 
 
+def test_a_pickled_vec_env_continues_exactly_in_a_process_without_float64(tmp_path):
+    # The starts drawn ahead travel as NumPy and go to the device again on load, in float64,
+    # even where JAX's default precision is float32: restarts continue DummyVecEnv's numbers.
+    import pickle
+
+    venv = lerax_like.sb3.make_vec_env("lerax_like/CartPole-v1", n_envs=4, seed=2, env_kwargs={"max_episode_steps": 9})
+    venv.reset()
+    rng = np.random.default_rng(0)
+    for _ in range(13):
+        venv.step(rng.integers(0, 2, size=4))
+    actions = rng.integers(0, 2, size=(30, 4))
+    (tmp_path / "venv.pkl").write_bytes(pickle.dumps(venv.venv))
+    np.save(tmp_path / "actions.npy", actions)
+    expected, dones = zip(*(venv.step(action)[::2] for action in actions))
+    script = (
+        "import pickle, sys, numpy as np, jax\n"
+        "assert not jax.config.jax_enable_x64\n"
+        "venv = pickle.loads(open(sys.argv[1] + '/venv.pkl', 'rb').read())\n"
+        "actions = np.load(sys.argv[1] + '/actions.npy')\n"
+        "np.save(sys.argv[1] + '/loaded.npy', np.array([venv.step(a)[0] for a in actions]))\n"
+    )
+    subprocess.run([sys.executable, "-c", script, str(tmp_path)], check=True, env={**os.environ, "JAX_ENABLE_X64": "0"})
+    loaded = np.load(tmp_path / "loaded.npy")
+    assert np.sum(dones) >= 8  # restarts happen in the loaded run, from starts drawn before the pickle
+    np.testing.assert_array_equal(loaded, np.array(expected))
+
+
 def test_an_inadmissible_action_in_an_int64_array_is_refused_and_nothing_steps():
     # An int64 array of the envs' shape goes to the step unchecked; the step checks it.
     venv = lerax_like.sb3.make_vec_env("lerax_like/CartPole-v1", n_envs=3, seed=0)

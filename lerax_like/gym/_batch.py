@@ -177,7 +177,7 @@ class Batch:
             self._observation, self._key = split.compiled.batch_observe(
                 self.parameters, self._y, self._steps, self._key
             )
-        return to_numpy(self._observation)
+        return to_numpy(self._current_observation())
 
     def advance(self, actions: np.ndarray) -> Outcome:
         """Every env steps with its action (checked by the front end: `check_actions`)."""
@@ -211,7 +211,7 @@ class Batch:
             self._y, self._steps, self._observation, self._key = split.compiled.batch_restart(
                 self.parameters, self._y, self._steps, self._key, observation, mask, self._starts
             )
-        return to_numpy(self._observation)
+        return to_numpy(self._current_observation())
 
     def advance_then_restart(self, actions: np.ndarray, starts: jax.Array | None) -> VecStep:
         """Every env steps with its action; given `starts` (one row per env, drawn before
@@ -285,7 +285,7 @@ class Batch:
         rows = to_numpy(rows)
         flags = rows[1:4] != 0  # one NumPy call for the three flags: host calls dominate a small step
         return Outcome(
-            to_numpy(self._observation), rows[0], flags[0], flags[1], flags[2], rows[4].astype(np.int64),
+            to_numpy(self._current_observation()), rows[0], flags[0], flags[1], flags[2], rows[4].astype(np.int64),
             np.ones(self.num_envs, dtype=np.bool_),
         )
 

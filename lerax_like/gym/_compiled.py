@@ -228,17 +228,17 @@ class VecStep(NamedTuple):
     """Whether every action could be applied; if not, the front end refuses the step."""
 
 
-def unpack_vec_step(summary: np.ndarray, observation_shape: tuple[int, ...]) -> VecStep:
+def unpack_vec_step(summary: jax.Array, observation_shape: tuple[int, ...]) -> VecStep:
     num_envs = observation_shape[0]
     size = math.prod(observation_shape)
     # One copy off the device; the parts are views of it, so each is an array of its own.
-    summary = to_numpy(summary)
-    rows = summary[2 * size : -1].reshape(5, num_envs)
+    host = to_numpy(summary)
+    rows = host[2 * size : -1].reshape(5, num_envs)
     flags = rows[1:4] != 0  # done, time limit, solver_ok: one NumPy call, and Python bools by `tolist`
     time_limit, solver_ok = flags[1:].tolist()
     return VecStep(
-        summary[:size].reshape(observation_shape), summary[size : 2 * size].reshape(observation_shape),
-        rows[0], flags[0], time_limit, solver_ok, rows[4].astype(np.int64).tolist(), bool(summary[-1]),
+        host[:size].reshape(observation_shape), host[size : 2 * size].reshape(observation_shape),
+        rows[0], flags[0], time_limit, solver_ok, rows[4].astype(np.int64).tolist(), bool(host[-1]),
     )
 
 
@@ -394,7 +394,7 @@ def _functions(treedef, static, layout) -> Compiled:
         observation = final
         if starts is not None:  # a second compilation for None, which few callers use
             y, steps, observation, restarted_key = restart(parameters, y, steps, key, final, done, starts)
-            if key is not None:
+            if key is not None and restarted_key is not None:  # both, for a stochastic scene
                 key = jax.lax.select(jnp.any(done), restarted_key, key)
         summary = [
             observation, final, reward, done, truncated & ~terminated, info["solver_ok"], info["solver_steps"],

@@ -278,8 +278,7 @@ class CompiledVecEnv(VecEnv):
             if self._next_starts is not None:  # they restarted in the step, from the starts drawn ahead
                 self._draw_ahead(ended)
             else:
-                starts = self._vector.starts_each([self._generators[index] for index in ended], [None] * ended.size)
-                fresh = self._batch.restart(step.done, starts)
+                fresh = self._batch.restart(step.done, self._autoreset_starts(ended.tolist()))
                 observation[ended] = fresh[ended]
         self._vector.last_action = actions
         if self.render_mode == "human":
@@ -293,19 +292,39 @@ class CompiledVecEnv(VecEnv):
     # anything else may draw from it: a reset, or handing the generators out.
 
     def _draw_ahead(self, indices) -> None:
-        generators = self._generators
-        for index in indices:
-            self._drawn_from[index] = generators[index].bit_generator.state
+        next_starts = self._next_starts
+        if next_starts is None:  # the generators are handed out: each start is drawn at its restart
+            return
         indices = list(indices)
-        # The autoreset of `DummyVecEnv`'s env: no options.
-        self._next_starts[indices] = self._vector.starts_each([generators[index] for index in indices], [None] * len(indices))
-        self._next_starts_on_device = self._batch.to_device(self._next_starts)
+        for index in indices:
+            if (generator := self._generators[index]) is not None:
+                self._drawn_from[index] = generator.bit_generator.state
+        next_starts[indices] = self._autoreset_starts(indices)
+        self._next_starts_on_device = self._batch.to_device(next_starts)
 
     def _undraw(self) -> None:
         for index, state in enumerate(self._drawn_from):
-            if state is not None:
-                self._generators[index].bit_generator.state = state
+            if state is not None and (generator := self._generators[index]) is not None:
+                generator.bit_generator.state = state
         self._drawn_from = [None] * self.num_envs
+
+    def _autoreset_starts(self, indices: list[int]) -> np.ndarray:
+        """A start for each env of `indices` (reset already), drawn from its generator as the
+        autoreset of `DummyVecEnv`'s env draws it: without options."""
+        generators = [generator for index in indices if (generator := self._generators[index]) is not None]
+        return self._vector.starts_each(generators, [None] * len(generators))
+
+    # Pickling: the device copy of the starts drawn ahead is made again on load, in the
+    # batch's dtype (a JAX array would load in the loading process's precision).
+
+    def __getstate__(self) -> dict[str, Any]:
+        return {**self.__dict__, "_next_starts_on_device": None}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        for name, value in state.items():
+            object.__setattr__(self, name, value)
+        if self._next_starts is not None and self._batch.state is not None:
+            self._next_starts_on_device = self._batch.to_device(self._next_starts)
 
     def _starts(self, indices) -> np.ndarray:
         """Starts of the envs `indices`, each drawn from its own generator as Gymnasium's env draws it."""
