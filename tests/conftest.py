@@ -15,6 +15,8 @@ import numpy as np
 import pytest
 from packaging.requirements import Requirement
 
+import lerax_like
+
 
 jax.config.update("jax_enable_x64", True)
 jax.config.update("jax_numpy_dtype_promotion", "strict")
@@ -55,6 +57,22 @@ STATE_RTOL = {
     "lerax_like/MountainCar-v0": 1e-12,
     "lerax_like/MountainCarContinuous-v0": 1e-6,
 }
+
+
+class NoisyCartPole(lerax_like.CartPole):
+    """CartPole seen through noise drawn with the observation's key: a stochastic scene
+    (every built-in scene is deterministic; the layers' key paths are for scenes like this)."""
+
+    stochastic = True
+
+    def observation(self, state, *, key):
+        return state.y + 1e-3 * jax.random.normal(key, state.y.shape)
+
+
+@pytest.fixture
+def noisy_cartpole() -> type[NoisyCartPole]:
+    """`NoisyCartPole`, the class (construct it with the keywords a test needs)."""
+    return NoisyCartPole
 
 
 @pytest.fixture

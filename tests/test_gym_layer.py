@@ -451,19 +451,10 @@ def test_vector_env_refuses_invalid_actions():
             ours.step(actions)
 
 
-class _NoisyCartPole(lerax_like.CartPole):
-    """CartPole seen through noise drawn with the observation's key: a stochastic scene."""
-
-    stochastic = True
-
-    def observation(self, state, *, key):
-        return state.y + 1e-3 * jax.random.normal(key, state.y.shape)
-
-
-def test_a_stochastic_scene_gets_seeded_keys_through_the_layer():
+def test_a_stochastic_scene_gets_seeded_keys_through_the_layer(noisy_cartpole):
     # Every built-in scene is deterministic; the layer's key path is for scenes like this.
     def episode(env):
-        env.unwrapped.scene = _NoisyCartPole()
+        env.unwrapped.scene = noisy_cartpole()
         observation, _ = env.reset(seed=5)
         observations = [observation]
         for _ in range(5):
@@ -478,7 +469,7 @@ def test_a_stochastic_scene_gets_seeded_keys_through_the_layer():
     assert len({tuple(row) for row in np.diff(first, axis=0)}) == 5  # fresh noise each step
 
     vector = gymnasium.make_vec("lerax_like/CartPole-v1", num_envs=3, vectorization_mode="vector_entry_point")
-    vector.scene = _NoisyCartPole()
+    vector.scene = noisy_cartpole()
     observations, _ = vector.reset(seed=5)
     observations = vector.step(np.ones(3, dtype=np.int64))[0]
     noise = observations - vector.state.T.astype(np.float32)

@@ -15,14 +15,12 @@ import textwrap
 
 import cloudpickle
 import gymnasium
-import jax
 import numpy as np
 import pytest
 from gymnasium.envs.registration import EnvSpec
 from gymnasium.utils.env_checker import data_equivalence
 from gymnasium.utils.env_match import check_environments_match
 
-import lerax_like
 from lerax_like.gym import SPECS
 
 
@@ -182,18 +180,9 @@ def test_pickle_keeps_written_attributes_and_keywords():
         assert data_equivalence(env.step(action), copy.step(action))
 
 
-class _NoisyCartPole(lerax_like.CartPole):
-    """CartPole seen through noise drawn with the observation's key: a stochastic scene."""
-
-    stochastic = True
-
-    def observation(self, state, *, key):
-        return state.y + 1e-3 * jax.random.normal(key, state.y.shape)
-
-
-def test_pickle_carries_a_stochastic_scenes_key():
+def test_pickle_carries_a_stochastic_scenes_key(noisy_cartpole):
     env = gymnasium.make("lerax_like/CartPole-v1")
-    env.unwrapped.scene = _NoisyCartPole()
+    env.unwrapped.scene = noisy_cartpole()
     env.reset(seed=4)
     env.step(1)
     copy = pickle.loads(pickle.dumps(env))

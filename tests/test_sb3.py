@@ -10,7 +10,6 @@ import subprocess
 import sys
 
 import gymnasium
-import jax
 import numpy as np
 import pytest
 
@@ -90,21 +89,12 @@ def test_same_step_autoreset_matches_dummy_vec_env_on_gymnasium_cartpole(hand_ou
     assert counts["terminated"] > 10 and counts["truncated"] > 10, counts  # both ends, and their restarts
 
 
-class _NoisyCartPole(lerax_like.CartPole):
-    """CartPole seen through noise drawn with the observation's key: a stochastic scene."""
-
-    stochastic = True
-
-    def observation(self, state, *, key):
-        return state.y + 1e-3 * jax.random.normal(key, state.y.shape)
-
-
-def test_a_stochastic_scene_restarts_in_the_step_as_in_a_second_call():
+def test_a_stochastic_scene_restarts_in_the_step_as_in_a_second_call(noisy_cartpole):
     # The restart in the step (starts drawn ahead) against the restart in a call of its
     # own (generators handed out): the same starts, and the same keys for the noise.
     def run(hand_out_generators):
         venv = lerax_like.sb3.make_vec_env("lerax_like/CartPole-v1", n_envs=4, seed=3)
-        venv.venv.scene = _NoisyCartPole(max_episode_steps=12)
+        venv.venv.scene = noisy_cartpole(max_episode_steps=12)
         if hand_out_generators:
             venv.get_attr("np_random")
         results = [venv.reset()]
