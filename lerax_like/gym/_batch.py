@@ -38,7 +38,7 @@ class Outcome(NamedTuple):
 
 
 @jax.jit
-def _device_copy(array):
+def _jitted_copy(array):
     # A jitted copy: jit's C++ path takes a NumPy array in a few microseconds, where
     # `jax.device_put`'s Python layers take 30 (hot) to over 100 (in a training loop).
     return array * 1
@@ -215,7 +215,7 @@ class Batch:
 
     def advance_then_restart(self, actions: np.ndarray, starts: jax.Array | None) -> VecStep:
         """Every env steps with its action; given `starts` (one row per env, drawn before
-        the step, on the device: `to_device`), the envs whose episode ended restart from
+        the step, on the device: `device_copy`), the envs whose episode ended restart from
         their row in the same call (SB3's same-step autoreset), else they are left ended
         for `restart`.
 
@@ -233,13 +233,13 @@ class Batch:
             self._y, self._steps, self._observation, self._key = y, steps, observation, key
         return step
 
-    def to_device(self, states: np.ndarray) -> jax.Array:
+    def device_copy(self, states: np.ndarray) -> jax.Array:
         """A copy of `states` (one row per env) on the device, in the batch's dtype: a
         start that several steps pass costs no transfer at each."""
         # A NumPy copy first: the device may share a CPU array's memory, and the caller's
         # `states` may change.
         with self._split.precision():
-            return _device_copy(np.array(states, dtype=self.dtype))
+            return _jitted_copy(np.array(states, dtype=self.dtype))
 
     def warm_up(
         self, starts: np.ndarray, actions: np.ndarray, *, advance: bool = True, fused: bool = False,
@@ -257,7 +257,7 @@ class Batch:
             if advance:
                 jax.block_until_ready(split.compiled.batch_advance(*arguments))
             if advance_then_restart:
-                jax.block_until_ready(split.compiled.batch_advance_then_restart(*arguments, self.to_device(starts)))
+                jax.block_until_ready(split.compiled.batch_advance_then_restart(*arguments, self.device_copy(starts)))
             if fused:
                 jax.block_until_ready(split.compiled.batch_advance_or_restart(*arguments, no_restart, starts))
             if restart:

@@ -300,7 +300,7 @@ class CompiledVecEnv(VecEnv):
             if (generator := self._generators[index]) is not None:
                 self._drawn_from[index] = generator.bit_generator.state
         next_starts[indices] = self._autoreset_starts(indices)
-        self._next_starts_on_device = self._batch.to_device(next_starts)
+        self._next_starts_on_device = self._batch.device_copy(next_starts)
 
     def _undraw(self) -> None:
         for index, state in enumerate(self._drawn_from):
@@ -324,7 +324,7 @@ class CompiledVecEnv(VecEnv):
         for name, value in state.items():
             object.__setattr__(self, name, value)
         if self._next_starts is not None and self._batch.state is not None:
-            self._next_starts_on_device = self._batch.to_device(self._next_starts)
+            self._next_starts_on_device = self._batch.device_copy(self._next_starts)
 
     def _starts(self, indices) -> np.ndarray:
         """Starts of the envs `indices`, each drawn from its own generator as Gymnasium's env draws it."""
