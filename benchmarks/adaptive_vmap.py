@@ -39,7 +39,7 @@ EASY, HARD = 0.5, 0.005
 
 
 def make_envs(half_lengths, solver):
-    return eqx.filter_vmap(lambda length: lerax_like.CartPole(half_length=length, solver=solver))(half_lengths)
+    return eqx.filter_vmap(lambda length: lerax_like.make("CartPole", half_length=length, solver=solver))(half_lengths)
 
 
 def episode(env, key, num_steps):

@@ -52,7 +52,7 @@ def measure(make_jitted, args) -> dict[str, float]:
 
 def rollout_program(solver, num_steps=NUM_STEPS):
     def make():
-        env = lerax_like.CartPoleContinuous(solver=solver)
+        env = lerax_like.make("CartPoleContinuous", solver=solver)
 
         @jax.jit
         def run(y0, actions, key):

@@ -57,8 +57,8 @@ def make_env(model: str):
         # env step; a reverse-mode gradient's memory grows with max_steps times the segments
         # (checkpoints), so both budgets are set to what the task needs (an exhausted one
         # would show in solver_ok_fraction).
-        return ll.CartPoleContinuous(restitution=1.0, max_steps=64, max_events=4, **common)
-    return ll.CartPoleContinuous(end_stop_stiffness=1e6, end_stop_damping=0.0, **common)
+        return ll.make("CartPoleContinuous", restitution=1.0, max_steps=64, max_events=4, **common)
+    return ll.make("CartPoleContinuous", end_stop_stiffness=1e6, end_stop_damping=0.0, **common)
 
 
 def rollout_batch(env, y0, actions):
@@ -145,7 +145,7 @@ def scipy_reference(y0, forces, dt, p, e=1.0):
 
 
 def ball_trajectory(steps: int):
-    env = ll.BouncingBall(restitution=0.8, dt=0.01)
+    env = ll.make("BouncingBall", restitution=0.8, dt=0.01)
     step = jax.jit(lambda state, u: env.evolve(state, u))
     state = ll.EnvState(y=jnp.array([-0.5, 1.5, 1.5, 0.0]), steps=jnp.zeros((), dtype=int))
     u = jnp.array([2.0, 0.0])
@@ -161,7 +161,7 @@ def ball_trajectory(steps: int):
 
 def restitution_sweep(values):
     """d loss / d e and d loss / d h (initial height) of a 50-step ball rollout: AD and central FD."""
-    env = ll.BouncingBall(restitution=0.8)
+    env = ll.make("BouncingBall", restitution=0.8)
     actions = jnp.tile(jnp.array([0.3, 0.0]), (50, 1))
 
     def loss_of(theta):

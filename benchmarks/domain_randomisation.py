@@ -60,7 +60,7 @@ def lqr_policy(pole_mass: float) -> LinearPolicy:
     """Discrete LQR at `pole_mass`: state weights (1, 1, 10, 1), action weight 1."""
     import scipy.linalg
 
-    env = ll.CartPoleContinuous(pole_mass=pole_mass)
+    env = ll.make("CartPoleContinuous", pole_mass=pole_mass)
 
     def vector_field(y, action):
         return env.dynamics.vector_field(0.0, y, env.physical_input(action))

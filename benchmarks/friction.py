@@ -43,7 +43,7 @@ SHARPNESS = tuple(10.0 ** -k for k in range(1, 8))
 
 
 def make_env():
-    return ll.SlidingBlock(static_friction=MU_S, kinetic_friction=MU_K, gravity=G)
+    return ll.make("SlidingBlock", static_friction=MU_S, kinetic_friction=MU_K, gravity=G)
 
 
 def _start(v0):

@@ -59,7 +59,7 @@ class Row:
 
 
 def _cart_pole(**options):
-    return lambda: ll.CartPoleContinuous(**options)
+    return lambda: ll.make("CartPoleContinuous", **options)
 
 
 ROWS = (

@@ -101,7 +101,7 @@ def main(argv=None):
     y0s = jnp.stack([jnp.array([0.0, 0.0, 0.3, 0.0])] * batch) + 0.01 * jr.normal(jr.key(0), (batch, 4))
     rows = []
     for solver in ("euler", "rk4", "tsit5"):
-        env = ll.CartPoleContinuous(reward="smooth", solver=solver, theta_threshold_radians=float("inf"), x_threshold=float("inf"))
+        env = ll.make("CartPoleContinuous", reward="smooth", solver=solver, theta_threshold_radians=float("inf"), x_threshold=float("inf"))
         for name, loss in [
             ("store every step", loss_store),
             ("checkpoint every step", loss_checkpoint_every_step),

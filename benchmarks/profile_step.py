@@ -96,7 +96,7 @@ def main(argv=None):
     args = sized_arguments(__doc__, argv, quick=(64, 100, 2), full=(1024, 500, 7))
     out = output_folder(args)
 
-    env = lerax_like.CartPole(solver="euler")
+    env = lerax_like.make("CartPole", solver="euler")
     runs = {}
     for name, (step, initial) in {**variants(env), "gymnax CartPole-v1": gymnax_program()}.items():
         run = batched(scanned(step, initial, args.steps), args.envs)

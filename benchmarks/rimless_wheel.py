@@ -36,7 +36,7 @@ from lerax_like.analysis.hybrid_reference import Contact, hybrid_reference  # no
 
 def make_env(dt: float = 0.05):
     controller = diffrax.PIDController(rtol=1e-12, atol=1e-12)
-    return ll.RimlessWheel(solver="dopri8", stepsize_controller=controller, max_steps=100_000, dt=dt)
+    return ll.make("RimlessWheel", solver="dopri8", stepsize_controller=controller, max_steps=100_000, dt=dt)
 
 
 def passive_run(env, starts, steps: int):

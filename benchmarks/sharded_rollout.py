@@ -54,7 +54,7 @@ def main(argv=None):
     import lerax_like
     from lerax_like.analysis.recording import write_record
 
-    env = lerax_like.CartPole(solver="rk4")
+    env = lerax_like.make("CartPole", solver="rk4")
     num_envs = args.envs_per_device * jax.device_count()
     mesh = jax.make_mesh((jax.device_count(),), ("envs",), axis_types=(jax.sharding.AxisType.Auto,))
     batch = NamedSharding(mesh, PartitionSpec("envs"))

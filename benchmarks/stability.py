@@ -175,7 +175,7 @@ def cartpole_case(name, description, *, dt=0.02, steps=200, action=0.0, y0=(0.0,
     parameters = {**CARTPOLE_DEFAULTS, **overrides}
 
     def make(solver):
-        return ll.CartPoleContinuous(
+        return ll.make("CartPoleContinuous",
             **parameters, force_mag=force_mag, dt=dt, solver=solver,
             theta_threshold_radians=math.inf, x_threshold=math.inf, max_episode_steps=None,
         )
@@ -197,7 +197,7 @@ def cartpole_case(name, description, *, dt=0.02, steps=200, action=0.0, y0=(0.0,
 
 def van_der_pol_case(name, description, mu, dt, steps, y0=(2.0, 0.0)):
     def make(solver):
-        return ll.VanDerPol(mu=mu, dt=dt, solver=solver, max_episode_steps=None)
+        return ll.make("VanDerPol", mu=mu, dt=dt, solver=solver, max_episode_steps=None)
 
     def field(t, y):
         return [y[1], mu * (1 - y[0] ** 2) * y[1] - y[0]]

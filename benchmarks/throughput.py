@@ -36,7 +36,7 @@ SYNC_MAX_ENVS = 64
 
 
 def lerax_program(solver: str):
-    env = lerax_like.CartPole(solver=solver)
+    env = lerax_like.make("CartPole", solver=solver)
 
     def initial(key):
         return env.reset(key=key)[0]

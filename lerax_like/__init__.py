@@ -1,7 +1,7 @@
 """Continuous-time control environments for JAX: physics as vector fields, any diffrax solver."""
 
 from . import physics as physics, spaces as spaces
-# How dynamics and scenes declare their fields, checked by name at construction.
+# How dynamics and scenes declare their parameters (`eqx.field(converter=POSITIVE)`), checked by name.
 from ._fields import (
     FINITE as FINITE,
     NONNEGATIVE as NONNEGATIVE,
@@ -9,15 +9,16 @@ from ._fields import (
     POSITIVE_OR_INF as POSITIVE_OR_INF,
     Range as Range,
     option as option,
-    parameter as parameter,
 )
 from .env import (
     AbstractEnv as AbstractEnv,
     EnvState as EnvState,
     rollout as rollout,
 )
-from .gradients import ADJOINTS as ADJOINTS, make_adjoint as make_adjoint, with_adjoint as with_adjoint
 from .integrate import (
+    ADJOINTS as ADJOINTS,
+    make_adjoint as make_adjoint,
+    with_adjoint as with_adjoint,
     HermiteDenseOutput as HermiteDenseOutput,
     Integrator as Integrator,
     RK4 as RK4,
@@ -60,6 +61,7 @@ from .physics import (
 from .scenes import (
     SCENES as SCENES,
     AbstractUnitActionEnv as AbstractUnitActionEnv,
+    make as make,
     register_scene as register_scene,
     # Every scene of the package (`tests/test_public_surface.py` checks that none is missing).
     Acrobot as Acrobot,
@@ -91,18 +93,6 @@ gym.register_envs()
 # Stable-Baselines3 vector envs (`lerax_like.sb3.make_vec_env`); SB3 is imported on first use.
 from . import sb3 as sb3
 
-from ._module_attributes import deprecated_names as _deprecated_names
-
-# Names that went (one name per concept), importable with a DeprecationWarning.
-__getattr__ = _deprecated_names(
-    __name__,
-    {
-        "SOLVER_PRESETS": ("lerax_like.SOLVERS.names", lambda: SOLVERS.names),
-        # The Gymnasium layer's own names live in it, not beside the physics.
-        "GymnasiumSpec": ("lerax_like.gym.GymnasiumSpec", lambda: gym.GymnasiumSpec),
-    },
-)
-
 __all__ = [
     "AbstractChainDynamics",
     "AbstractConservativeDynamics",
@@ -133,6 +123,7 @@ __all__ = [
     "HermiteDenseOutput",
     "Integrator",
     "JointDamping",
+    "make",
     "make_adjoint",
     "make_integrator",
     "MountainCar",
@@ -142,7 +133,6 @@ __all__ = [
     "NLinkPendulumDynamics",
     "NONNEGATIVE",
     "option",
-    "parameter",
     "Pendulum",
     "PendulumDynamics",
     "PlaneFriction",

@@ -19,7 +19,7 @@ def episode_limit(default: int | None):
     return eqx.field(default=default, converter=_episode_limit)
 
 
-def _episode_limit(value) -> IntScalar | None:
+def _episode_limit(value: "int | None") -> IntScalar | None:
     if value is None or isinstance(value, jax.core.Tracer):
         return value
     array = np.asarray(value)

@@ -1,18 +1,23 @@
-"""Fields declared once and checked once: how dynamics and scenes are constructed.
+"""Fields declared once and checked once: how dynamics, add-ons and scenes are constructed.
 
-A physical or task parameter is declared as a field with `parameter(default, check)`; a
-static option (one that decides code paths) with `option(default, choices)`. One shared
-`__init__` (`AbstractParametrised`) takes every field as a keyword, converts parameters
-to floating-point array leaves, runs each field's check with the field's own name in the
-message, and refuses unknown keywords naming the closest known one; its signature lists
-the fields (`lerax_like._signatures`). Checks see concrete
-values only: under `jax.vmap` a parameter may be a tracer, which is let through (the
-integrator reports runtime failures instead).
+They are plain Equinox modules: the `__init__` is the one Equinox's dataclass writes from the
+fields, which `inspect`, `help()`, IDEs and type checkers read. A physical or task parameter
+is a field whose converter is its allowed range,
+
+    pole_mass: Scalar = eqx.field(default=0.1, converter=POSITIVE)
+
+which makes it a floating-point array leaf (so `jax.grad` and `eqx.filter_vmap` reach it);
+`AbstractParametrised.__check_init__` then checks every such field against its range, with
+the field's name in the message. A static option (one that decides code paths) is
+`option(default, choices)`. Checks see concrete values only: under `jax.vmap` a parameter
+may be a tracer, which is let through (the integrator reports runtime failures instead).
 """
 
+from __future__ import annotations
+
 import dataclasses
-from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from collections.abc import Callable, Sequence
+from typing import Any
 
 import equinox as eqx
 import jax
@@ -20,8 +25,7 @@ import jax.core  # `jax.core.Tracer`: imported by name, so that a type checker s
 import jax.numpy as jnp
 import numpy as np
 
-from ._signatures import Constructor, field_keywords, refuse_unknown
-
+from ._types import ArrayLike
 
 Check = Callable[[np.ndarray], bool]
 
@@ -33,28 +37,57 @@ def concrete(value) -> np.ndarray | None:
 
 
 def as_parameter(value, name: str) -> jax.Array:
-    """A physical parameter as a floating-point array leaf (default float dtype)."""
+    """A physical parameter as a floating-point array leaf (default float dtype), refused by `name`."""
+    converted = _as_float_array(value)
+    if not isinstance(converted, jax.Array):
+        raise TypeError(f"{name} must be a real number, got {value!r}")
+    return converted
+
+
+def _as_float_array(value) -> Any:
+    """`value` as an array of the default float dtype; `value` itself if it is not a real number
+    (refused by name in `__check_init__`, which knows the field's name)."""
     if isinstance(value, jax.core.Tracer):
         return value if jnp.issubdtype(value.dtype, jnp.floating) else value.astype(float)
     if isinstance(value, (str, bytes)) or value is None:
-        raise TypeError(f"{name} must be a real number, got {value!r}")
+        return value
     try:
         return jnp.asarray(value, dtype=float)
-    except (TypeError, ValueError) as error:
-        raise TypeError(f"{name} must be a real number, got {value!r}") from error
+    except (TypeError, ValueError):
+        return value
 
 
 @dataclasses.dataclass(frozen=True)
 class Range:
-    """An allowed range of a parameter, as the error message states it."""
+    """The allowed range of a parameter, and its converter (`eqx.field(converter=POSITIVE)`).
+
+    Called on a value it returns a floating-point array; `shape`, if given, is the required
+    shape, where a name stands for any length >= 1 that every field naming it shares
+    (`("n",)` for a chain's per-link masses and lengths, n the number of links).
+    """
 
     description: str
     holds: Check
+    shape: tuple[str | int, ...] | None = None
+
+    def __call__(self, value: ArrayLike) -> jax.Array:
+        return _as_float_array(value)
+
+    def shaped(self, *shape: str | int) -> ShapedRange:
+        """This range for an array of `shape`."""
+        return ShapedRange(self.description, self.holds, shape)
 
     def check(self, value, name: str) -> None:
         array = concrete(value)
         if array is not None and not self.holds(array):
             raise ValueError(f"{name} must be {self.description}, got {array}")
+
+
+class ShapedRange(Range):
+    """A range for an array of a given shape, which takes a sequence of numbers too."""
+
+    def __call__(self, value: ArrayLike | Sequence[float]) -> jax.Array:
+        return _as_float_array(value)
 
 
 POSITIVE = Range("finite and > 0 (allowed range (0, inf))", lambda a: bool(np.all(np.isfinite(a)) and np.all(a > 0)))
@@ -63,21 +96,7 @@ POSITIVE_OR_INF = Range("> 0 (allowed range (0, inf])", lambda a: bool(np.all(a 
 FINITE = Range("finite (allowed range (-inf, inf))", lambda a: bool(np.all(np.isfinite(a))))
 
 
-def parameter(default: Any = dataclasses.MISSING, check: Range | None = POSITIVE, *, default_from=None, shape=None):
-    """A differentiable parameter: a float array leaf, checked against `check` by name.
-
-    `default_from(values)`, if given, computes the default from the fields declared
-    before it (a threshold that depends on the task, say). `shape`, if given, is the
-    required shape, a name standing for any length >= 1 that every field naming it shares
-    (`("n",)` for a chain's per-link masses and lengths, n the number of links).
-    """
-    metadata = {"parameter": True, "range": check, "default_from": default_from, "shape": shape}
-    if default_from is not None:
-        default = None
-    return eqx.field(default=default, metadata=metadata)
-
-
-def option(default: Any, choices: tuple | None = None, *, static: bool = True):
+def option(default: Any, choices: tuple | None = None, *, static: bool = True) -> Any:
     """A static option (it decides code paths or shapes), one of `choices` if given."""
     return eqx.field(default=default, static=static, metadata={"choices": choices})
 
@@ -114,53 +133,29 @@ def check_count(value: int, name: str, minimum: int = 1) -> None:
         raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
 
 
-def assign_fields(module: eqx.Module, values: dict[str, Any]) -> None:
-    """Set every field of `module` from `values` or its default, converted and checked by name."""
-    cls = type(module)
-    fields = dataclasses.fields(cls)
-    refuse_unknown(cls, values, (field.name for field in fields))
-    resolved: dict[str, Any] = {}
-    sizes: dict[str, tuple[int, str]] = {}
-    for field in fields:
-        metadata = field.metadata
-        if field.name in values:
-            value = values[field.name]
-        elif metadata.get("default_from") is not None:
-            value = metadata["default_from"](resolved)
-        elif field.default is not dataclasses.MISSING:
-            value = field.default
-        elif field.default_factory is not dataclasses.MISSING:
-            value = field.default_factory()
-        else:
-            raise TypeError(f"{cls.__name__} needs the keyword {field.name}")
-        if metadata.get("parameter"):
-            value = as_parameter(value, field.name)
-            check_shape(value, metadata.get("shape"), field.name, sizes)
-            if metadata.get("range") is not None:
-                metadata["range"].check(value, field.name)
-        choices = metadata.get("choices")
-        if choices is not None and value not in choices:
-            raise ValueError(f"{field.name} must be one of {choices}, got {value!r}")
-        resolved[field.name] = value
-        setattr(module, field.name, value)
-
-
-def _construct(self, **values):
-    """Every field by keyword; a parameter is converted to a float array and checked by name."""
-    assign_fields(self, values)
+def parameter_range(field: dataclasses.Field) -> Range | None:
+    """The range of a parameter field (its converter), None for any other field."""
+    converter = field.metadata.get("converter")
+    return converter if isinstance(converter, Range) else None
 
 
 class AbstractParametrised(eqx.Module):
-    """Constructed by keyword from its fields (see `parameter` and `option`), checked once.
+    """Its parameters (fields converted by a `Range`) are checked by name once constructed,
+    its options against their choices."""
 
-    Its signature (`inspect.signature`, `help()`) lists the fields with their defaults.
-    """
-
-    if TYPE_CHECKING:  # a final class declares its own (`lerax_like._constructor_source`)
-
-        def __init__(self, **values: Any) -> None: ...
-    else:
-        __init__ = Constructor(_construct, field_keywords)
+    def __check_init__(self):
+        sizes: dict[str, tuple[int, str]] = {}
+        for field in dataclasses.fields(self):
+            value = getattr(self, field.name)
+            allowed = parameter_range(field)
+            if allowed is not None:
+                if not isinstance(value, jax.Array):
+                    raise TypeError(f"{field.name} must be a real number, got {value!r}")
+                check_shape(value, allowed.shape, field.name, sizes)
+                allowed.check(value, field.name)
+            choices = field.metadata.get("choices")
+            if choices is not None and value not in choices:
+                raise ValueError(f"{field.name} must be one of {choices}, got {value!r}")
 
 
 __all__ = [
@@ -171,9 +166,8 @@ __all__ = [
     "AbstractParametrised",
     "Range",
     "as_parameter",
-    "assign_fields",
     "check_count",
     "check_shape",
     "option",
-    "parameter",
+    "parameter_range",
 ]

@@ -15,7 +15,6 @@ import os
 import sys
 import time
 
-from ._module_attributes import deprecated_names
 
 
 SOLVER_HELP = (
@@ -405,16 +404,6 @@ def main(argv: list[str] | None = None) -> int:
 
     arguments = parser.parse_args(argv)
     return arguments.run(arguments)
-
-
-def _solver_from_spec():
-    from .integrate import solver_from_spec
-
-    return solver_from_spec
-
-
-# The solver lookup lived here; it is `lerax_like.integrate.solver_from_spec` now.
-__getattr__ = deprecated_names(__name__, {"solver_from_spec": ("lerax_like.integrate.solver_from_spec", _solver_from_spec)})
 
 
 if __name__ == "__main__":

@@ -4,10 +4,11 @@ An env is an Equinox module, so it is a pytree: its physical parameters are leav
 `jax.grad` differentiates and `eqx.filter_vmap` batches, and every method is pure.
 
 A scene declares its parts as fields and nothing else: `dynamics` (a physics module),
-`integrator` and its task's parameters (`parameter(...)`, `option(...)`). The one
-`__init__` (`lerax_like._construct`) takes them by keyword, and also takes the dynamics'
-parameters and the integrator's settings flat (`CartPole(pole_mass=0.2, solver="rk4")`),
-as Gymnasium users pass them; its signature lists them all (`lerax_like._signatures`).
+`integrator` (an `Integrator`, or a preset name or diffrax solver that its converter makes
+one), its add-ons and its task's parameters (`eqx.field(converter=POSITIVE)`, `option(...)`).
+Its `__init__` is the one Equinox's dataclass writes: `CartPole(integrator="rk4",
+dynamics=CartPoleDynamics(pole_mass=0.2))`. Flat keywords, as Gymnasium users pass them
+(`pole_mass=0.2, solver="rk4"`), are resolved in one place, `lerax_like.make`.
 The step semantics (keys, failure guards, autoreset) live in `advance` and `step`, which
 everything else calls: `rollout`, the Gymnasium layer, the studies.
 """
@@ -20,35 +21,13 @@ import jax
 import jax.numpy as jnp
 import jax.random as jr
 
-from ._construct import construct_scene, integrator_keywords
 from ._episode import episode_limit, episode_time
-from ._fields import POSITIVE, concrete, parameter
+from ._fields import AbstractParametrised, concrete
 from ._random import uniform
-from ._signatures import Constructor, scene_keywords
-from .gradients import forward_mode_hint
 from ._types import Array, ArrayLike, BoolScalar, Float, Input, IntScalar, Key, Scalar, State
-from .integrate import Integrator, make_integrator
+from .integrate import Integrator, forward_mode_hint
 from .physics import AbstractChainDynamics, AbstractDynamics
 from .spaces import AbstractSpace, Box, eager_spaces
-
-
-def integrator(solver: str = "euler"):
-    """The `integrator` field of a scene, `solver` (a preset name) by default.
-
-    The scene's flat keywords `solver`, `stepsize_controller`, `max_steps`, `adjoint` and
-    `substeps` build another one with `make_integrator`.
-    """
-    return eqx.field(default_factory=lambda: make_integrator(solver), metadata={"solver": solver})
-
-
-def dynamics(factory):
-    """The `dynamics` field of a scene: `factory()` by default; its parameters are flat keywords."""
-    return eqx.field(default_factory=factory, metadata={"factory": factory})
-
-
-def time_step(default: float):
-    """The env step `dt` (> 0)."""
-    return parameter(default, POSITIVE)
 
 
 class EnvState(eqx.Module):
@@ -106,7 +85,7 @@ def step_keys(key: Key | None, stochastic: bool) -> StepKeys[Any]:
     return StepKeys(None, None, None, None, key)
 
 
-class AbstractEnv(eqx.Module):
+class AbstractEnv(AbstractParametrised):
     """A continuous-time control env: physics (`dynamics`), an `integrator` and a task.
 
     A scene provides `physical_input`, `reward`, `initial_bounds`, `worst_reward` and
@@ -140,11 +119,19 @@ class AbstractEnv(eqx.Module):
     dt: eqx.AbstractVar[Scalar]
     max_episode_steps: eqx.AbstractVar[IntScalar | None]
 
-    if TYPE_CHECKING:  # a final scene declares its own (`lerax_like._constructor_source`)
-
-        def __init__(self, *fields: Any, **keywords: Any) -> None: ...
-    else:
-        __init__ = Constructor(construct_scene, lambda cls: scene_keywords(cls, integrator_keywords()))
+    def __check_init__(self):
+        for contact in getattr(self, "contacts", ()):
+            contact.check(self.dynamics)
+        friction = getattr(self, "friction", ())
+        for addon in friction:
+            addon.check(self.dynamics)
+        if len(friction) > 1:
+            raise ValueError(f"{type(self).__name__} takes at most one friction add-on, got {len(friction)}")
+        if friction and getattr(self, "contacts", ()):
+            raise ValueError(
+                f"{type(self).__name__}: Coulomb friction and located contacts (restitution, walls) cannot be "
+                "combined yet; give either the friction keywords or the contact ones"
+            )
 
     def __init_subclass__(cls, **keywords):
         super().__init_subclass__(**keywords)
@@ -308,7 +295,7 @@ class AbstractEnv(eqx.Module):
         # `jax.jit(env.step)` hashes the bound method, hence `env`, whose array leaves are
         # unhashable; JAX's own message (`unhashable type: ArrayImpl`) does not say why.
         try:
-            return super().__hash__()
+            return eqx.Module.__hash__(self)
         except TypeError as error:
             raise TypeError(
                 f"a {type(self).__name__} holds arrays (its parameters) and cannot be hashed, so "
@@ -472,6 +459,5 @@ def rollout(
 
 
 __all__ = [
-    "AbstractEnv", "Attempt", "EnvState", "StepKeys", "dynamics", "episode_limit",
-    "episode_time", "integrator", "rollout", "step_keys", "time_step",
+    "AbstractEnv", "Attempt", "EnvState", "StepKeys", "episode_limit", "episode_time", "rollout", "step_keys",
 ]

@@ -153,7 +153,7 @@ def test_non_numeric_parameters_are_refused_by_name(name):
     assert names
     for parameter in names:
         with pytest.raises(TypeError, match=rf"^{parameter} must be a real number, got 'heavy'"):
-            scene(**{parameter: "heavy"})
+            ll.make(scene, **{parameter: "heavy"})
 
 
 def test_non_numeric_parameter_through_gymnasium_make_is_refused_by_name():

@@ -30,7 +30,7 @@ import lerax_like as ll
 def _walled_cartpole_batch(solver, envs=4):
     # A rail 6 cm either side: from the resets (within 5 cm of the centre) the pushed carts
     # reach the wall at different steps of the rollout.
-    env = ll.CartPoleContinuous(restitution=0.8, track_limit=0.06, solver=solver)
+    env = ll.make("CartPoleContinuous", restitution=0.8, track_limit=0.06, solver=solver)
     states = jax.vmap(lambda key: env.reset(key=key)[0])(jr.split(jr.key(0), envs))
     return env, states
 
@@ -40,7 +40,7 @@ def _walled_cartpole_batch(solver, envs=4):
 @pytest.mark.slow
 @pytest.mark.parametrize("solver", ["euler", "rk4"])
 def test_batched_reverse_mode_through_walls_is_finite_and_equals_each_envs_own(solver):
-    # Issue 29: jax.grad of a vmapped rollout of CartPoleContinuous(restitution=0.8) raised
+    # Issue 29: jax.grad of a vmapped rollout of ll.make("CartPoleContinuous", restitution=0.8) raised
     # lineax's "non-finite input" (the default Euler, and RK4), one env alone did not.
     env, states = _walled_cartpole_batch(solver)
     actions = jnp.full((12, 1), 0.3)
@@ -97,9 +97,9 @@ def _integrator(preset):
 
 
 def _walled(scene):
-    def make(solver):
-        return ll.SCENES[scene](
-            solver=solver, restitution=0.8, track_limit=0.06, x_threshold=jnp.inf, theta_threshold_radians=jnp.inf
+    def make(integrator):
+        return ll.make(
+            scene, integrator=integrator, restitution=0.8, track_limit=0.06, x_threshold=jnp.inf, theta_threshold_radians=jnp.inf
         )
 
     return make
@@ -130,7 +130,7 @@ KNOWN_FAILING = {("CartPole+walls", "semi_implicit_euler"), ("CartPoleContinuous
 def _default_preset(scene) -> str | None:
     """The preset name of a scene's default integrator (None: one of its own)."""
     field = {f.name: f for f in dataclasses.fields(scene)}.get("integrator")
-    return None if field is None else field.metadata.get("solver")
+    return None if field is None or not isinstance(field.default, str) else field.default
 
 
 def _cases():
@@ -186,7 +186,7 @@ def _actions(env, steps, walled, key):
 @pytest.mark.parametrize(("name", "preset", "make", "steps"), _params())
 def test_batched_reverse_and_forward_mode_match_central_differences(name, preset, make, steps):
     try:
-        env = make(solver=_integrator(preset))
+        env = make(integrator=_integrator(preset))
         states = jax.vmap(lambda key: env.reset(key=key)[0])(jr.split(jr.key(1), ENVS))
     except ValueError as error:
         # A pairing the scene refuses, by name (semi-implicit Euler on dynamics that declare

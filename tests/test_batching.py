@@ -10,7 +10,7 @@ import lerax_like as ll
 
 def test_batch_of_256_pole_masses_equals_single_steps():
     masses = jnp.linspace(0.05, 3.0, 256)
-    envs = eqx.filter_vmap(lambda m: ll.CartPole(pole_mass=m))(masses)
+    envs = eqx.filter_vmap(lambda m: ll.make("CartPole", pole_mass=m))(masses)
     keys = jax.random.split(jax.random.key(0), 256)
     step_keys = jax.random.split(jax.random.key(1), 256)
     actions = jax.random.randint(jax.random.key(2), (256,), 0, 2)
@@ -22,7 +22,7 @@ def test_batch_of_256_pole_masses_equals_single_steps():
 
     batched = eqx.filter_vmap(reset_and_step)(envs, keys, actions, step_keys)
     for i in (0, 1, 100, 255):
-        single = reset_and_step(ll.CartPole(pole_mass=masses[i]), keys[i], actions[i], step_keys[i])
+        single = reset_and_step(ll.make("CartPole", pole_mass=masses[i]), keys[i], actions[i], step_keys[i])
         for batched_leaf, single_leaf in zip(jax.tree.leaves(batched), jax.tree.leaves(single)):
             np.testing.assert_allclose(np.asarray(batched_leaf)[i], np.asarray(single_leaf), rtol=1e-14, atol=0)
     # Different masses really give different motion.
@@ -31,7 +31,7 @@ def test_batch_of_256_pole_masses_equals_single_steps():
 
 
 def test_step_is_pure_under_jit_vmap_and_grad(getkey):
-    env = ll.CartPoleContinuous(reward="smooth", theta_threshold_radians=jnp.inf, x_threshold=jnp.inf)
+    env = ll.make("CartPoleContinuous", reward="smooth", theta_threshold_radians=jnp.inf, x_threshold=jnp.inf)
     state, _, _ = env.reset(key=getkey())
     key = getkey()
 

@@ -36,7 +36,7 @@ def actions():
     [("euler", 1e-6), ("rk4", 1e-6), pytest.param("tsit5", 1e-4, marks=pytest.mark.slow)],  # tsit5: about 17 s
 )
 def test_gradients_match_central_finite_differences(solver, rtol, actions):
-    env = ll.CartPoleContinuous(solver=solver, theta_threshold_radians=jnp.inf, x_threshold=jnp.inf)
+    env = ll.make("CartPoleContinuous", solver=solver, theta_threshold_radians=jnp.inf, x_threshold=jnp.inf)
     loss = eqx.filter_jit(_loss)
     pole_mass = env.dynamics.pole_mass
 

@@ -30,7 +30,7 @@ def one_step():
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_one_step_from_gymnasium_state_over_balanced_episodes(seed, one_step):
     reference = gymnasium.make("CartPole-v1")
-    env = ll.CartPole(solver="euler")
+    env = ll.make("CartPole", solver="euler")
     key = jax.random.key(seed)
     observation, _ = reference.reset(seed=seed)
     rng = np.random.default_rng(seed)
@@ -64,7 +64,7 @@ def test_free_running_100_steps():
     for action in actions:
         reference.unwrapped.step(int(action))  # unwrapped: run on past termination as pure physics
         expected.append(np.array(reference.unwrapped.state, dtype=np.float64))
-    env = ll.CartPole(solver="euler")
+    env = ll.make("CartPole", solver="euler")
     ys, infos = eqx.filter_jit(ll.rollout)(
         env, EnvState(y=jnp.asarray(y0), steps=jnp.zeros((), int)), jnp.asarray(actions), key=jax.random.key(0)
     )

@@ -123,8 +123,8 @@ def test_cart_chain_matches_sympy_lagrangian(n_links):
 
 def test_scene_vector_fields_match_sympy(getkey):
     """The scenes' own `env.dynamics.vector_field` at their random start states and actions."""
-    double = ll.DoubleCartPole(cart_mass=1.3, pole_masses=(0.3, 0.2), pole_lengths=(0.8, 1.1), gravity=9.8)
-    pendulum = ll.NLinkPendulum(masses=(1.0, 2.0, 0.5), lengths=(3.0, 1.0, 2.0), max_torque=2.0)
+    double = ll.make("DoubleCartPole", cart_mass=1.3, pole_masses=(0.3, 0.2), pole_lengths=(0.8, 1.1), gravity=9.8)
+    pendulum = ll.make("NLinkPendulum", masses=(1.0, 2.0, 0.5), lengths=(3.0, 1.0, 2.0), max_torque=2.0)
     cases = [
         (double, _reference_vector_field(2, cart=True), (0.3, 0.2), (0.8, 1.1), 9.8, 1.3),
         (pendulum, _reference_vector_field(3, cart=False), (1.0, 2.0, 0.5), (3.0, 1.0, 2.0), 9.81, 0.0),
@@ -222,15 +222,15 @@ def test_construction_checks():
     with pytest.raises(ValueError, match="lengths"):
         NLinkPendulumDynamics(masses=(1.0, 1.0), lengths=(1.0, 1.0, 1.0))
     with pytest.raises(ValueError, match="pole_masses"):
-        ll.DoubleCartPole(pole_masses=(0.1, 0.1, 0.1), pole_lengths=(1.0, 1.0, 1.0))
+        ll.make("DoubleCartPole", pole_masses=(0.1, 0.1, 0.1), pole_lengths=(1.0, 1.0, 1.0))
     with pytest.raises(ValueError, match="cart_mass"):
-        ll.DoubleCartPole(cart_mass=0.0)
+        ll.make("DoubleCartPole", cart_mass=0.0)
     with pytest.raises(ValueError, match="task"):
         ll.DoubleCartPole(task="fly")
     with pytest.raises(ValueError, match="max_torque"):
         ll.NLinkPendulum(max_torque=-1.0)
     # Under vmap the parameters are tracers: let through, and batched physics works.
-    batched = eqx.filter_vmap(lambda l: ll.NLinkPendulum(lengths=l))(jnp.ones((4, 3)))
+    batched = eqx.filter_vmap(lambda l: ll.make("NLinkPendulum", lengths=l))(jnp.ones((4, 3)))
     assert batched.dynamics.lengths.shape == (4, 3)
 
 
@@ -252,7 +252,7 @@ def test_scenes_step_and_tasks(getkey):
     assert float(jnp.min(jnp.abs(observation[1:3] - jnp.pi))) < 0.05
     _, _, reward, terminated, _, _ = step(swing, state, jnp.array([0.0]), getkey())
     assert float(reward) < -0.99 and not bool(terminated)
-    pendulum = ll.NLinkPendulum(masses=(1.0, 1.0), lengths=(1.0, 1.0), max_torque=3.0)
+    pendulum = ll.make("NLinkPendulum", masses=(1.0, 1.0), lengths=(1.0, 1.0), max_torque=3.0)
     assert pendulum.action_space.shape == (2,) and pendulum.observation_space.shape == (4,)
     state, _, _ = pendulum.reset(key=getkey())
     state, observation, reward, terminated, truncated, info = step(pendulum, state, jnp.array([0.5, -2.0]), getkey())
@@ -267,8 +267,8 @@ def test_three_link_lengths_recovered_within_one_percent(getkey):
     from lerax_like.env import rollout
 
     dt = 0.02
-    real = ll.NLinkPendulum(lengths=(3.0, 3.0, 3.0), dt=dt, solver=ll.make_integrator("rk4", substeps=10))
-    model = ll.NLinkPendulum(lengths=(1.0, 5.0, 0.5), dt=dt, solver="rk4")
+    real = ll.make("NLinkPendulum", lengths=(3.0, 3.0, 3.0), dt=dt, solver=ll.make_integrator("rk4", substeps=10))
+    model = ll.make("NLinkPendulum", lengths=(1.0, 5.0, 0.5), dt=dt, solver="rk4")
     actions = jnp.zeros((2, 50, 3))
     starts = [real.initial(key=getkey()) for _ in range(2)]
     states = jnp.stack(
@@ -300,8 +300,8 @@ def test_adaptive_mpc_swings_up_double_cartpole():
         return jnp.all(jnp.abs((y[1:3] + jnp.pi) % (2 * jnp.pi) - jnp.pi) < 0.3)
 
     settings = dict(task="swing_up", dt=0.05, solver="rk4")
-    real = ll.DoubleCartPole(**settings)
-    model = ll.DoubleCartPole(cart_mass=0.8, pole_masses=(0.12, 0.08), pole_lengths=(1.2, 0.8), **settings)
+    real = ll.make("DoubleCartPole", **settings)
+    model = ll.make("DoubleCartPole", cart_mass=0.8, pole_masses=(0.12, 0.08), pole_lengths=(1.2, 0.8), **settings)
 
     def parameters(env):
         return (env.dynamics.cart_mass, env.dynamics.pole_masses, env.dynamics.pole_lengths)

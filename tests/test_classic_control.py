@@ -113,7 +113,7 @@ def test_pendulum_matches_gymnasium(getkey):
 
 
 def test_pendulum_energy_conserved_without_torque_under_tsit5():
-    env = ll.Pendulum(
+    env = ll.make("Pendulum",
         solver="tsit5", stepsize_controller=diffrax.PIDController(rtol=1e-12, atol=1e-12),
         max_speed=jnp.inf,
     )
@@ -264,7 +264,7 @@ def test_scene_runs_with_rk4_and_tsit5(scene, getkey):
     # within its own tolerance, and RK4's error falls as the fourth order predicts when
     # its step is halved (Acrobot's 0.2 s step is large: it need not be small).
     def rollout(integrator):
-        env = scene(solver=integrator)
+        env = scene(integrator=integrator)
         state, _, _ = env.reset(key=jr.key(3))
         actions = jax.vmap(lambda key: env.action_space.sample(key=key))(jr.split(jr.key(4), 5))
         ys, infos = eqx.filter_jit(ll.rollout)(env, state, actions, key=getkey())
@@ -309,7 +309,7 @@ def test_semi_implicit_euler_keeps_energy_bounded_where_euler_drifts():
     state = EnvState(y=jnp.array([2.0, 0.0]), steps=jnp.zeros((), dtype=int))
     drift = {}
     for solver in ["semi_implicit_euler", "euler"]:
-        env = ll.Pendulum(solver=solver, max_speed=jnp.inf, max_episode_steps=None)
+        env = ll.make("Pendulum", solver=solver, max_speed=jnp.inf, max_episode_steps=None)
         ys, _ = eqx.filter_jit(ll.rollout)(env, state, jnp.zeros((2000, 1)), key=jr.key(0))
         error = jnp.abs(jax.vmap(env.dynamics.energy)(ys) - env.dynamics.energy(state.y))
         drift[solver] = (float(jnp.max(error[:200])), float(jnp.max(error[-200:])))
@@ -332,7 +332,7 @@ def test_semi_implicit_euler_refuses_what_it_cannot_do():
 
 def test_cartpole_runs_with_semi_implicit_euler(getkey):
     # The solver is general: any dynamics that declares its velocities can use it.
-    env = ll.CartPole(solver="semi_implicit_euler")
+    env = ll.make("CartPole", solver="semi_implicit_euler")
     state, _, _ = env.reset(key=getkey())
     ys, infos = eqx.filter_jit(ll.rollout)(env, state, jnp.ones((20,), dtype=int), key=getkey())
     euler = ll.CartPole()
@@ -351,16 +351,16 @@ def test_cartpole_runs_with_semi_implicit_euler(getkey):
         (lambda: ll.Pendulum(max_torque=-1.0), "max_torque"),
         (lambda: ll.Pendulum(max_speed=0.0), "max_speed"),
         (lambda: ll.Pendulum(dt=0.0), "dt"),
-        (lambda: ll.Pendulum(length=float("nan")), "length"),
-        (lambda: ll.Pendulum(gravity=-10.0), "gravity"),
-        (lambda: ll.Acrobot(link_mass_1=0.0), "link_mass_1"),
-        (lambda: ll.Acrobot(link_moment_of_inertia_2=-1.0), "link_moment_of_inertia_2"),
+        (lambda: ll.make("Pendulum", length=float("nan")), "length"),
+        (lambda: ll.make("Pendulum", gravity=-10.0), "gravity"),
+        (lambda: ll.make("Acrobot", link_mass_1=0.0), "link_mass_1"),
+        (lambda: ll.make("Acrobot", link_moment_of_inertia_2=-1.0), "link_moment_of_inertia_2"),
         (lambda: ll.Acrobot(max_velocity_2=-1.0), "max_velocity_2"),
         (lambda: ll.Acrobot(torque=0.0), "torque"),
-        (lambda: ll.Acrobot(equations="paper"), "equations"),
+        (lambda: ll.make("Acrobot", equations="paper"), "equations"),
         (lambda: ll.MountainCar(force=0.0), "force"),
         (lambda: ll.MountainCar(min_position=1.0), "min_position"),
-        (lambda: ll.MountainCar(gravity=float("inf")), "gravity"),
+        (lambda: ll.make("MountainCar", gravity=float("inf")), "gravity"),
         (lambda: ll.MountainCarContinuous(power=-0.1), "power"),
         (lambda: ll.MountainCarContinuous(goal_velocity=float("nan")), "goal_velocity"),
         (lambda: ll.MountainCarContinuous(max_speed=-0.07), "max_speed"),
@@ -373,7 +373,7 @@ def test_bad_parameters_refused_by_name(make, parameter):
 
 def test_parameters_may_be_traced():
     # Built under vmap (a batch of gravities): the checks let tracers through.
-    envs = eqx.filter_vmap(lambda g: ll.Pendulum(gravity=g))(jnp.array([9.0, 10.0, 11.0]))
+    envs = eqx.filter_vmap(lambda g: ll.make("Pendulum", gravity=g))(jnp.array([9.0, 10.0, 11.0]))
     assert envs.dynamics.gravity.shape == (3,)
 
 

@@ -22,17 +22,18 @@ USER_SCENE = textwrap.dedent(
     from typing import ClassVar
 
     import jax
+    import equinox as eqx
     import jax.numpy as jnp
 
     import lerax_like as ll
-    from lerax_like.env import dynamics, episode_limit, integrator, time_step
+    from lerax_like.env import episode_limit
 
 
     @typing.final
     class OscillatorDynamics(ll.AbstractConservativeDynamics):
         velocity_indices: ClassVar[tuple[int, ...]] = (1,)
 
-        stiffness: jax.Array = ll.parameter(4.0, ll.POSITIVE)
+        stiffness: jax.Array = eqx.field(default=4.0, converter=ll.POSITIVE)
 
         def vector_field(self, t, y, u):
             return jnp.stack([y[1], -self.stiffness * y[0] + u[0]])
@@ -71,10 +72,10 @@ USER_SCENE = textwrap.dedent(
         action_size: ClassVar[int] = 1
         action_scale: ClassVar[str] = "force_mag"
 
-        dynamics: OscillatorDynamics = dynamics(OscillatorDynamics)
-        integrator: ll.Integrator = integrator("rk4")
-        force_mag: jax.Array = ll.parameter(1.0, ll.POSITIVE)
-        dt: jax.Array = time_step(0.05)
+        dynamics: OscillatorDynamics = eqx.field(default_factory=OscillatorDynamics)
+        integrator: ll.Integrator = eqx.field(default="rk4", converter=ll.make_integrator)
+        force_mag: jax.Array = eqx.field(default=1.0, converter=ll.POSITIVE)
+        dt: jax.Array = eqx.field(default=0.05, converter=ll.POSITIVE)
         max_episode_steps: int | None = episode_limit(100)
 
         @property

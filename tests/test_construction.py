@@ -16,26 +16,26 @@ from lerax_like.env import EnvState
 def test_non_positive_or_nan_parameters_are_refused(name, value):
     for scene in (ll.CartPole, ll.CartPoleContinuous):
         with pytest.raises(ValueError, match=rf"{name} must be .*\(0, inf\)"):
-            scene(**{name: value})
+            ll.make(scene, **{name: value})
 
 
 @pytest.mark.parametrize("name", ["theta_threshold_radians", "x_threshold"])
 def test_thresholds_may_be_infinite_but_not_negative_or_nan(name):
-    ll.CartPole(**{name: jnp.inf})
+    ll.make("CartPole", **{name: jnp.inf})
     for value in (0.0, -1.0, float("nan")):
         with pytest.raises(ValueError, match=name):
-            ll.CartPole(**{name: value})
+            ll.make("CartPole", **{name: value})
 
 
 @pytest.mark.parametrize("solver", ["euler", "rk4", diffrax.Euler(), ll.RK4()])
 def test_solver_without_error_estimate_refuses_adaptive_controller(solver):
     with pytest.raises(ValueError, match="no error estimate"):
-        ll.CartPole(solver=solver, stepsize_controller=diffrax.PIDController(rtol=1e-6, atol=1e-8))
+        ll.make("CartPole", solver=solver, stepsize_controller=diffrax.PIDController(rtol=1e-6, atol=1e-8))
 
 
 def test_unknown_solver_name_lists_the_presets():
     with pytest.raises(ValueError, match="euler"):
-        ll.CartPole(solver="rk5")
+        ll.make("CartPole", solver="rk5")
     with pytest.raises(TypeError, match="diffrax solver"):
         ll.Integrator("euler")
 
@@ -45,7 +45,7 @@ def test_every_preset_and_solver_object_builds_and_steps():
     state = EnvState(y=jnp.array([0.0, 0.0, 0.1, 0.0]), steps=jnp.zeros((), int))
     transition = eqx.filter_jit(lambda env: env.transition(state, jnp.asarray(1), key=jax.random.key(0)))
     tight = ll.make_integrator("dopri8", diffrax.PIDController(rtol=1e-12, atol=1e-12))
-    reference, _ = transition(ll.CartPole(solver=tight))
+    reference, _ = transition(ll.make("CartPole", solver=tight))
     # One step of dt = 0.02 from the same state; the reference agrees with SciPy's DOP853 at
     # 1e-13 to 4e-16. Errors measured (max-norm): Euler and semi-implicit Euler 2.6e-3 (Euler's
     # local error dt^2 / 2 * |y''|, |y''| about 13 rad/s^2), Heun, midpoint, Ralston 3.0e-4,
@@ -63,7 +63,7 @@ def test_every_preset_and_solver_object_builds_and_steps():
     bounds.update({"Bosh3": 5e-6, "rk4, 4 substeps": 2e-9})
     assert set(solvers) <= set(bounds), f"no bound for {set(solvers) - set(bounds)}"
     for name, solver in solvers.items():
-        next_state, info = transition(ll.CartPole(solver=solver))
+        next_state, info = transition(ll.make("CartPole", solver=solver))
         assert bool(info["solver_ok"]) and int(info["solver_steps"]) >= 1
         error = float(np.max(np.abs(np.asarray(next_state.y) - np.asarray(reference.y))))
         assert error < bounds[name], f"{name}: error {error:.2e} against Dopri8 at 1e-12"
@@ -71,7 +71,7 @@ def test_every_preset_and_solver_object_builds_and_steps():
 
 def test_construction_under_filter_vmap_with_traced_parameters():
     masses = jnp.linspace(0.05, 2.0, 8)
-    envs = eqx.filter_vmap(lambda m: ll.CartPole(pole_mass=m))(masses)
+    envs = eqx.filter_vmap(lambda m: ll.make("CartPole", pole_mass=m))(masses)
     np.testing.assert_array_equal(np.asarray(envs.dynamics.pole_mass), np.asarray(masses))
 
 

@@ -27,7 +27,7 @@ GRAVITY = 9.81
 
 
 def _ball(**keywords):
-    return ll.BouncingBall(**{"restitution": 0.8, **keywords})
+    return ll.make("BouncingBall", **{"restitution": 0.8, **keywords})
 
 
 def _state(y):
@@ -168,7 +168,7 @@ def test_the_cart_wall_impact_is_impulse_consistent():
     # to theta is (no impulse on theta), the cart rebounds at e times its speed, and the
     # energy lost is the kinetic energy of the normal speed: (1 - e^2) v^2 / (2 J M^-1 J^T).
     e = 0.6
-    env = ll.CartPoleContinuous(
+    env = ll.make("CartPoleContinuous",
         track_limit=0.5, restitution=e, x_threshold=jnp.inf, theta_threshold_radians=jnp.inf, solver="tsit5"
     )
     walls = env.contacts[0]
@@ -190,15 +190,15 @@ def test_the_cart_wall_impact_is_impulse_consistent():
 def test_walls_and_end_stops_are_chosen_by_keyword_also_through_gymnasium():
     import gymnasium
 
-    walled = ll.CartPoleContinuous(track_limit=0.5, restitution=0.8)
+    walled = ll.make("CartPoleContinuous", track_limit=0.5, restitution=0.8)
     assert walled.forces == () and isinstance(walled.contacts[0], ll.physics.contact.Walls)
     assert float(walled.contacts[0].track_limit) == 0.5
-    stopped = ll.CartPoleContinuous(track_limit=0.5, end_stop_stiffness=1e5)
+    stopped = ll.make("CartPoleContinuous", track_limit=0.5, end_stop_stiffness=1e5)
     assert stopped.contacts == () and isinstance(stopped.forces[0], ll.EndStops)
     with pytest.raises(ValueError, match="EndStops .* or Walls"):
-        ll.CartPole(restitution=0.5, end_stop_stiffness=1e5)
+        ll.make("CartPole", restitution=0.5, end_stop_stiffness=1e5)
     with pytest.raises(ValueError, match="restitution"):
-        ll.CartPole(restitution=1.5)
+        ll.make("CartPole", restitution=1.5)
     env = gymnasium.make("lerax_like/CartPole-v1", track_limit=0.5, restitution=0.8)
     assert isinstance(env.unwrapped.scene.contacts[0], ll.physics.contact.Walls)
     env.close()

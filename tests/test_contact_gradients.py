@@ -20,7 +20,7 @@ STEPS = 50
 
 
 def _ball(solver):
-    env = ll.BouncingBall(restitution=0.8, solver=solver)
+    env = ll.make("BouncingBall", restitution=0.8, solver=solver)
     # Thrust towards the wall from a height: the wall at about 0.4 s, the floor at 0.45 s.
     y0 = jnp.array([0.5, 1.0, 1.0, 0.0])
     actions = jnp.tile(jnp.array([0.3, 0.0]), (STEPS, 1))
@@ -28,7 +28,7 @@ def _ball(solver):
 
 
 def _cartpole(solver):
-    env = ll.CartPole(
+    env = ll.make("CartPole",
         track_limit=0.5, restitution=0.8, solver=solver, x_threshold=jnp.inf, theta_threshold_radians=jnp.inf
     )
     # Pushed right throughout: the cart hits the wall, rebounds and is pushed back into it.
@@ -78,7 +78,7 @@ def test_rimless_wheel_gradient_through_heel_strikes_matches_finite_differences(
     # stance angle and scaling the speed by cos(2 alpha)): the gradient of a rollout loss
     # with respect to the start speed, the slope and the spoke half-angle, which moves
     # both the strike surface and the impact map.
-    env = ll.RimlessWheel(solver="tsit5")
+    env = ll.make("RimlessWheel", solver="tsit5")
     wheel = env.dynamics
     actions = jnp.zeros((60, 1))
 

@@ -22,7 +22,7 @@ ACTION = 0.3
 
 
 def _env(dt, solver, stepsize_controller=None):
-    return ll.CartPoleContinuous(
+    return ll.make("CartPoleContinuous",
         dt=dt,
         solver=solver,
         stepsize_controller=stepsize_controller,

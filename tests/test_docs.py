@@ -88,7 +88,7 @@ scene = ll.SCENES["PointMass"]
 assert scene is PointMass and scene.__final__
 for bad, name in (({"mass": -1.0}, "mass"), ({"force_mag": float("nan")}, "force_mag"), ({"mass": "heavy"}, "mass")):
     try:
-        scene(**bad)
+        ll.make(scene, **bad)
     except (TypeError, ValueError) as error:
         assert str(error).startswith(name), error
     else:
@@ -101,7 +101,7 @@ for i in range(5):
 assert bool(info["solver_ok"]) and int(state.steps) == 5
 
 def final_speed(mass):
-    ys, _ = ll.rollout(scene(mass=mass), env.reset(key=jr.key(0))[0], jnp.ones((10, 1)))
+    ys, _ = ll.rollout(ll.make(scene, mass=mass), env.reset(key=jr.key(0))[0], jnp.ones((10, 1)))
     return ys[-1, 1]
 
 # x_dot grows by force_mag * t / mass: d/dm at t = 0.5 s is -0.5 / m**2.

@@ -43,7 +43,7 @@ _run_jit = eqx.filter_jit(_run)
 
 
 def test_explicit_euler_divergence_is_flagged_and_ends_the_episode():
-    env = ll.CartPoleContinuous(
+    env = ll.make("CartPoleContinuous",
         dt=0.5, solver="euler", theta_threshold_radians=jnp.inf, x_threshold=jnp.inf, max_episode_steps=None
     )
     y0 = jnp.array([[0.0, 0.0, 0.1, 0.0], [0.0, 0.0, -0.05, 0.0], [0.01, 0.0, 0.0, 0.02]])
@@ -94,7 +94,7 @@ def test_nan_mid_trajectory_under_constant_step_size_is_caught():
 
 def test_budget_exhaustion_under_vmap_is_reported_per_env():
     # Parameters traced under vmap: one compile for both envs; the stiff one fails.
-    make = lambda mu: ll.VanDerPol(mu=mu, dt=1.0, solver=ll.make_integrator("tsit5", max_steps=256))
+    make = lambda mu: ll.make("VanDerPol", mu=mu, dt=1.0, solver=ll.make_integrator("tsit5", max_steps=256))
     envs = eqx.filter_vmap(make)(jnp.array([1.0, 1000.0]))
     y0 = jnp.array([[2.0, 0.0], [2.0, 0.0]])
     actions = jnp.zeros((2, 3, 1))
@@ -192,7 +192,7 @@ _two_steps = eqx.filter_jit(lambda env, y0, actions, key: _run(env, y0, actions,
 @given(_cartpole_parameters, _cartpole_states, st.floats(-1.0, 1.0), st.sampled_from(["tsit5", "euler"]))
 def test_cartpole_steps_are_finite_and_flags_consistent(parameters, y0, action, solver):
     integrator = ll.make_integrator(solver, max_steps=256 if solver == "tsit5" else None)
-    env = ll.CartPoleContinuous(
+    env = ll.make("CartPoleContinuous",
         **parameters, solver=integrator, reward="smooth", max_episode_steps=2, track_limit=2.4
     )
     record = _two_steps(env, jnp.asarray(y0), jnp.full((2, 1), action), jax.random.key(0))
@@ -213,7 +213,7 @@ def test_cartpole_steps_are_finite_and_flags_consistent(parameters, y0, action, 
 @settings(max_examples=8, deadline=None, derandomize=True)
 @given(st.floats(0.0, 1e3), st.floats(-3.0, 3.0), st.floats(-3.0, 3.0), st.floats(-1.0, 1.0))
 def test_van_der_pol_steps_are_finite_and_flags_consistent(mu, x, v, action):
-    env = ll.VanDerPol(mu=mu, dt=0.5, solver=ll.make_integrator("tsit5", max_steps=256))
+    env = ll.make("VanDerPol", mu=mu, dt=0.5, solver=ll.make_integrator("tsit5", max_steps=256))
     record = _two_steps(env, jnp.array([x, v]), jnp.full((2, 1), action), jax.random.key(0))
     record = jax.tree.map(np.asarray, record)
     for name in ("observation", "reward", "final_observation"):
@@ -295,7 +295,7 @@ def _regular_rewards(env, key, num_states=256):
 
 @pytest.mark.parametrize("name, options", VARIANTS, ids=VARIANT_IDS)
 def test_worst_reward_bounds_every_regular_reward(name, options):
-    env = ll.SCENES[name](**options)
+    env = ll.make(name, **options)
     rewards, regular = _regular_rewards(env, jax.random.key(0))
     rewards, regular = np.asarray(rewards), np.asarray(regular)
     assert regular.mean() > 0.5, "most sampled steps should be regular"
@@ -332,7 +332,7 @@ _advance = eqx.filter_jit(lambda env, state, action: env.advance(state, action, 
 @pytest.mark.parametrize("failure", FAILURES)
 @pytest.mark.parametrize("name, options", VARIANTS, ids=VARIANT_IDS)
 def test_a_forced_failure_pays_at_most_the_worst_reward(name, options, failure):
-    env = ll.SCENES[name](**options)
+    env = ll.make(name, **options)
     state = env.reset(key=jax.random.key(3))[0]
     action = env.action_space.sample(key=jax.random.key(4))
     if failure == "inadmissible action":

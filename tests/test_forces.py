@@ -294,7 +294,7 @@ def test_a_scene_without_add_ons_integrates_gymnasiums_four_leaves(scene):
     y, u = jnp.array([0.1, -0.2, 0.3, 0.4]), jnp.array([1.0])
     assert len(jax.make_jaxpr(plain.physics.vector_field)(0.0, y, u).jaxpr.eqns) <= 40
     # With add-on keywords the scene integrates the forced dynamics, add-ons included.
-    rig = scene(joint_damping=1.0, end_stop_stiffness=1e5, track_limit=2.0)
+    rig = ll.make(scene, joint_damping=1.0, end_stop_stiffness=1e5, track_limit=2.0)
     assert isinstance(rig.physics, ForcedDynamics)
     assert [type(force) for force in rig.physics.forces] == [JointDamping, EndStops]
     assert float(rig.physics.forces[1].track_limit) == 2.0

@@ -28,7 +28,7 @@ def _state(y):
 
 
 def _block(**keywords):
-    return ll.SlidingBlock(**{"static_friction": MU_S, "kinetic_friction": MU_K, "gravity": G, **keywords})
+    return ll.make("SlidingBlock", **{"static_friction": MU_S, "kinetic_friction": MU_K, "gravity": G, **keywords})
 
 
 def _stop(env, v0):

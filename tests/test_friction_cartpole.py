@@ -135,7 +135,7 @@ def test_florians_theta_equation_solves_his_three_equations():
 
 
 def _env(**keywords):
-    return ll.CartPoleContinuous(
+    return ll.make("CartPoleContinuous",
         cart_static_friction=MU_S, cart_kinetic_friction=MU_K, pole_mass=POLE, cart_mass=CART, half_length=HALF,
         gravity=G, dt=DT, x_threshold=jnp.inf, theta_threshold_radians=jnp.inf, solver="tsit5",
         stepsize_controller=diffrax.PIDController(rtol=1e-12, atol=1e-12), max_steps=4096, **keywords,
@@ -190,7 +190,7 @@ def test_an_inconsistent_slip_is_reported_not_integrated():
     # Painleve: a heavy pole at 45 degrees on a light cart with mu = 2 (the slip's friction
     # grows with the normal force faster than the normal force allows): one direction of
     # slip has no consistent friction force. The other direction is integrated.
-    env = ll.CartPoleContinuous(
+    env = ll.make("CartPoleContinuous",
         cart_static_friction=2.0, cart_kinetic_friction=2.0, pole_mass=1.0, cart_mass=0.01,
         x_threshold=jnp.inf, theta_threshold_radians=jnp.inf, solver="tsit5",
     )
@@ -207,9 +207,9 @@ def test_an_inconsistent_slip_is_reported_not_integrated():
 def test_zero_friction_builds_no_add_on_and_stays_the_plain_cartpole_bit_for_bit():
     # Coefficients given as zero build nothing (the scene computes no friction), so the
     # cart-pole stays the plain one, which tests/test_cartpole_gymnasium.py holds to Gymnasium.
-    plain, zero = ll.CartPole(), ll.CartPole(cart_static_friction=0.0, cart_kinetic_friction=0.0)
+    plain, zero = ll.CartPole(), ll.make("CartPole", cart_static_friction=0.0, cart_kinetic_friction=0.0)
     assert zero.friction == () and plain.friction == ()
-    assert ll.CartPole(cart_kinetic_friction=0.0).friction != ()  # static friction left at Barto's
+    assert ll.make("CartPole", cart_kinetic_friction=0.0).friction != ()  # static friction left at Barto's
     state = ll.EnvState(y=jnp.array([0.01, -0.02, 0.03, 0.04]), steps=jnp.zeros((), dtype=int))
     actions = jnp.array([0, 1, 1, 0, 1, 0, 0, 1] * 4)
     run = jax.jit(ll.rollout)
@@ -220,7 +220,7 @@ def test_the_double_cart_poles_rail_force_is_the_weight_less_the_links_vertical_
     # N = (m_c + m_1 + m_2) g + m_1 h_1'' + m_2 h_2'', the heights of the uniform poles' centres
     # written out (h_1 = l_1 cos(t_1) / 2, h_2 = l_1 cos(t_1) + l_2 cos(t_2) / 2), against
     # CartFriction's normal force, read off the chain's potential energy.
-    env = ll.DoubleCartPole(cart_static_friction=0.3, cart_kinetic_friction=0.2, pole_masses=jnp.array([0.4, 0.3]))
+    env = ll.make("DoubleCartPole", cart_static_friction=0.3, cart_kinetic_friction=0.2, pole_masses=jnp.array([0.4, 0.3]))
     chain, friction = env.dynamics, env.friction[0]
     y = jnp.array([0.1, 0.7, -1.2, 0.3, 2.0, -3.0])  # [x, t1, t2, x', t1', t2']
     acceleration = jnp.array([0.5, -4.0, 6.0])  # any: N is affine in it

@@ -57,7 +57,7 @@ def _check(ad, fd, label):
 
 
 def _env(solver):
-    return ll.CartPoleContinuous(
+    return ll.make("CartPoleContinuous",
         cart_static_friction=0.3, cart_kinetic_friction=0.15, pole_mass=0.3,
         x_threshold=jnp.inf, theta_threshold_radians=jnp.inf, solver=solver,
     )

@@ -43,7 +43,7 @@ def test_the_hermite_dip_is_the_lowest_point_of_the_cubic():
 @pytest.mark.slow
 def test_a_lift_off_within_one_adaptive_step_is_located():
     dt = 0.05
-    env = ll.CartPoleContinuous(
+    env = ll.make("CartPoleContinuous",
         cart_static_friction=0.3, cart_kinetic_friction=0.15, dt=dt, x_threshold=jnp.inf,
         theta_threshold_radians=jnp.inf,
         integrator=make_integrator("tsit5", diffrax.PIDController(rtol=1e-3, atol=1e-6)),

@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 import lerax_like as ll
-from lerax_like.analysis.scenes import make_scene
+from lerax_like import make as make_scene
 from lerax_like.analysis.friction_reference import friction_modes, friction_reference_step
 from lerax_like.cli import main
 
@@ -30,7 +30,7 @@ G, MU_S, MU_K = 9.81, 0.5, 0.3
 
 
 def _block(**keywords):
-    return ll.SlidingBlock(**{"static_friction": MU_S, "kinetic_friction": MU_K, "gravity": G, **keywords})
+    return ll.make("SlidingBlock", **{"static_friction": MU_S, "kinetic_friction": MU_K, "gravity": G, **keywords})
 
 
 @pytest.mark.parametrize("v0", [1.5, -0.8])

@@ -40,14 +40,14 @@ def test_reset_info_has_step_info_structure_every_scene(name, getkey):
 
 @pytest.mark.parametrize("solver", list(ll.SOLVERS.names))
 def test_reset_info_has_step_info_structure_every_preset(solver, getkey):
-    _assert_same_info_structure(ll.CartPoleContinuous(solver=solver), getkey())
+    _assert_same_info_structure(ll.make("CartPoleContinuous", solver=solver), getkey())
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("solver", list(ll.SOLVERS.names))
 @pytest.mark.parametrize("name", list(ll.SCENES))
 def test_reset_info_has_step_info_structure_every_scene_and_preset(name, solver, getkey):
-    env = ll.SCENES[name](solver=solver)
+    env = ll.make(name, solver=solver)
     if solver == "semi_implicit_euler" and env.physics.velocity_indices is None:
         # Not a pair that steps: the integrator refuses it by name when the step is traced.
         with pytest.raises(ValueError, match="velocity_indices"):
@@ -58,7 +58,7 @@ def test_reset_info_has_step_info_structure_every_scene_and_preset(name, solver,
 
 def test_reset_info_says_nothing_failed(getkey):
     """A reset integrated nothing: its flags are True, its counts zero, its final observation the start's."""
-    env = ll.CartPole(solver="tsit5")
+    env = ll.make("CartPole", solver="tsit5")
     _, observation, info = env.reset(key=getkey())
     assert bool(info["solver_ok"]) and bool(info["action_ok"])
     assert int(info["solver_steps"]) == 0 and int(info["solver_rejected_steps"]) == 0
@@ -67,7 +67,7 @@ def test_reset_info_says_nothing_failed(getkey):
 
 def test_scan_carries_the_info_and_select_mixes_reset_and_step(getkey):
     """A trainer's loop: the carry holds an info, and a done env takes a reset's state and info."""
-    env = ll.CartPole(solver="rk4", max_episode_steps=7)
+    env = ll.make("CartPole", solver="rk4", max_episode_steps=7)
 
     @eqx.filter_jit
     def run(env, key):

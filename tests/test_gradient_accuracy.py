@@ -72,7 +72,7 @@ def test_gradient_study_refuses_scenes_that_clip_their_state(capsys):
 def _impacts_in_recorded_rollout(record) -> int:
     """The impacts of the study's own rollout (its recorded start and actions), counted by
     the env, so that a test knows the gradient it checks went through contact."""
-    from lerax_like.analysis.scenes import make_scene
+    from lerax_like import make as make_scene
 
     env = make_scene(record["config"]["scene"], **record["config"]["scene_kwargs"])
     state = ll.EnvState(y=jnp.asarray(record["initial_state"]), steps=jnp.asarray(0))

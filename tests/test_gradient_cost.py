@@ -46,12 +46,12 @@ def _batched_value_and_grad(env, actions, **rollout_options):
 
 def test_default_adjoint_keeps_few_checkpoints():
     # diffrax would size them by the budget (4096 steps: 90 checkpoints per solve).
-    adaptive = ll.CartPoleContinuous(solver="tsit5").integrator
+    adaptive = ll.make("CartPoleContinuous", solver="tsit5").integrator
     assert adaptive.adjoint.checkpoints == CHECKPOINTS
-    assert ll.with_adjoint(ll.CartPoleContinuous(solver="tsit5"), "checkpoint").integrator.adjoint.checkpoints == CHECKPOINTS
+    assert ll.with_adjoint(ll.make("CartPoleContinuous", solver="tsit5"), "checkpoint").integrator.adjoint.checkpoints == CHECKPOINTS
     # Never more than the budget; an explicit count is the user's.
-    assert ll.CartPoleContinuous(solver="rk4", substeps=3).integrator.adjoint.checkpoints == 3
-    explicit = ll.CartPoleContinuous(solver="tsit5", adjoint=diffrax.RecursiveCheckpointAdjoint(checkpoints=50))
+    assert ll.make("CartPoleContinuous", solver="rk4", substeps=3).integrator.adjoint.checkpoints == 3
+    explicit = ll.make("CartPoleContinuous", solver="tsit5", adjoint=diffrax.RecursiveCheckpointAdjoint(checkpoints=50))
     assert explicit.integrator.adjoint.checkpoints == 50
 
 
@@ -62,8 +62,8 @@ def test_recomputed_solves_give_the_same_gradient():
     # recomputes; the gradient must be the one of storing every step.
     controller = diffrax.PIDController(rtol=1e-11, atol=1e-13)
     actions = jnp.array([[0.4], [-0.6]])
-    few = ll.CartPoleContinuous(solver="tsit5", stepsize_controller=controller, dt=0.5, reward="smooth")
-    every = ll.CartPoleContinuous(
+    few = ll.make("CartPoleContinuous", solver="tsit5", stepsize_controller=controller, dt=0.5, reward="smooth")
+    every = ll.make("CartPoleContinuous",
         solver="tsit5", stepsize_controller=controller, dt=0.5, reward="smooth",
         adjoint=diffrax.RecursiveCheckpointAdjoint(checkpoints=400),
     )
@@ -79,7 +79,7 @@ def test_recomputed_solves_give_the_same_gradient():
 
 @pytest.mark.slow  # two adaptive gradients compiled
 def test_rollout_checkpointing_changes_memory_not_gradients():
-    env = ll.CartPoleContinuous(solver="tsit5", reward="smooth")
+    env = ll.make("CartPoleContinuous", solver="tsit5", reward="smooth")
     actions = jnp.linspace(-0.8, 0.7, 6)[:, None]
     results, memory = {}, {}
     for checkpoint in (True, False):

@@ -38,11 +38,11 @@ def _rollout_loss(tree):
 
 
 def _continuous(solver):
-    return ll.CartPoleContinuous(solver=solver, reward="smooth")
+    return ll.make("CartPoleContinuous", solver=solver, reward="smooth")
 
 
 def _discrete(solver):
-    return ll.CartPole(solver=solver)
+    return ll.make("CartPole", solver=solver)
 
 
 # One line per scene: (name, constructor from a solver, actions, whether actions are differentiable).
@@ -145,7 +145,7 @@ def test_make_adjoint_names():
         make_adjoint("adjoint")
     # The Integrator route: a scene built with an Integrator carries its adjoint.
     integrator = ll.make_integrator("tsit5", adjoint=diffrax.ForwardMode())
-    assert isinstance(ll.CartPoleContinuous(solver=integrator).integrator.adjoint, diffrax.ForwardMode)
+    assert isinstance(ll.make("CartPoleContinuous", solver=integrator).integrator.adjoint, diffrax.ForwardMode)
 
 
 # ---- Non-smooth cases: what finite differences expose ----
@@ -195,7 +195,7 @@ def test_action_clip_has_no_derivative_at_the_limit():
     # At action = 1 the force saturates: the derivative from below is the slope, from
     # above it is zero. JAX's clip returns their average, which central differences
     # reproduce, and neither one-sided derivative.
-    env = ll.CartPoleContinuous(reward="smooth")
+    env = ll.make("CartPoleContinuous", reward="smooth")
 
     def final_x_dot(action):
         state = EnvState(y=Y0, steps=jnp.zeros((), int))
@@ -243,7 +243,7 @@ VAN_DER_POL_CASES = {"mu": jnp.array([1.0, 1000.0]), "y0": jnp.array([[2.0, 0.0]
 
 @pytest.mark.slow
 def test_plain_backsolve_adjoint_is_silently_wrong_on_stiff_van_der_pol():
-    env = ll.VanDerPol(dt=1.0, solver="kvaerno5")
+    env = ll.make("VanDerPol", dt=1.0, solver="kvaerno5")
     # The default adjoint agrees with finite differences in both cases.
     report = gradcheck(lambda tree: _both_cases(tree, env)[0], VAN_DER_POL_CASES)
     assert report.passed(ADAPTIVE_RTOL), str(report)
@@ -271,7 +271,7 @@ def test_plain_backsolve_adjoint_is_silently_wrong_on_stiff_van_der_pol():
 def test_named_backsolve_adjoint_raises_on_stiff_van_der_pol():
     # make_adjoint("backsolve") gives its backward solve throw=True: the exhausted budget
     # of the stiff case is raised instead of passed off as a gradient.
-    env = with_adjoint(ll.VanDerPol(mu=1000.0, dt=1.0, solver="kvaerno5"), "backsolve")
+    env = with_adjoint(ll.make("VanDerPol", mu=1000.0, dt=1.0, solver="kvaerno5"), "backsolve")
     gradient = eqx.filter_jit(jax.grad(_van_der_pol_final_state, has_aux=True))
     with pytest.raises(Exception, match="maximum number of solver steps"):
         jax.block_until_ready(gradient(env.dynamics.mu, jnp.array([2.0, 0.0]), env))

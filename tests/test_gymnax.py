@@ -101,7 +101,7 @@ def test_vmap_over_physical_parameters(getkey):
     _, state = env.reset(key, params)
     observations = jax.vmap(env.step_env, in_axes=(None, None, None, in_axes))(key, state, jnp.asarray(1), batched)[0]
     for mass, observation in zip(masses, observations):
-        scene = ll.CartPole(solver="rk4", pole_mass=mass)
+        scene = ll.make("CartPole", solver="rk4", pole_mass=mass)
         np.testing.assert_array_equal(observation, scene.advance(state, jnp.asarray(1), key=key)[1])
     assert not np.allclose(observations[0], observations[2])
 

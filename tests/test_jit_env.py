@@ -31,7 +31,7 @@ def _user_controller():
 @pytest.mark.parametrize("solver", ll.SOLVERS.names)
 @pytest.mark.parametrize("name", sorted(ll.SCENES))
 def test_every_leaf_of_an_env_is_an_array(name, solver):
-    env = ll.SCENES[name](solver=solver)
+    env = ll.make(name, solver=solver)
     assert _non_array_leaves(env) == []
     # The physical parameters are still leaves, so still differentiable.
     assert jax.tree.leaves(env.dynamics), name
@@ -40,7 +40,7 @@ def test_every_leaf_of_an_env_is_an_array(name, solver):
 def test_a_users_controller_leaves_only_arrays_and_keeps_its_settings():
     controller = _user_controller()
     assert _non_array_leaves(controller)  # as given, it holds a function and Python numbers
-    env = ll.CartPoleContinuous(solver="tsit5", stepsize_controller=controller)
+    env = ll.make("CartPoleContinuous", solver="tsit5", stepsize_controller=controller)
     assert _non_array_leaves(env) == []
     held = env.integrator.stepsize_controller
     assert held.norm is optimistix.max_norm and (held.atol, held.pcoeff, held.icoeff) == (1e-10, 0.2, 0.4)
@@ -83,18 +83,18 @@ _COMPILED_PAIRS = sorted(
 @pytest.mark.slow
 @pytest.mark.parametrize(("name", "solver"), _COMPILED_PAIRS)
 def test_plain_jit_of_a_step_runs_and_matches_filter_jit(name, solver):
-    _compare_jit_with_filter_jit(ll.SCENES[name](solver=solver), jr.key(7))
+    _compare_jit_with_filter_jit(ll.make(name, solver=solver), jr.key(7))
 
 
 @pytest.mark.parametrize("adjoint", ["checkpoint", "forward", "backsolve"])
 def test_every_leaf_is_an_array_whatever_the_adjoint(adjoint):
-    env = ll.with_adjoint(ll.CartPoleContinuous(solver="tsit5"), adjoint)
+    env = ll.with_adjoint(ll.make("CartPoleContinuous", solver="tsit5"), adjoint)
     assert _non_array_leaves(env) == []
     assert isinstance(env.integrator.adjoint, type(ll.make_adjoint(adjoint)))
 
 
 def test_plain_jit_with_a_users_controller_and_a_gradient_through_it():
-    env = ll.CartPoleContinuous(solver="tsit5", stepsize_controller=_user_controller())
+    env = ll.make("CartPoleContinuous", solver="tsit5", stepsize_controller=_user_controller())
     _compare_jit_with_filter_jit(env, jr.key(3))
     state, _, _ = env.reset(key=jr.key(4))
     action = jnp.array([0.5])

@@ -19,7 +19,7 @@ def test_policy_trained_through_the_simulator_balances_for_500_steps():
     # The notebook's recipe (1024 envs, a horizon curriculum, a cart cost), another seed.
     num_envs, horizons = 1024, (50, 100, 200)
     envs = eqx.filter_vmap(
-        lambda mass: ll.CartPoleContinuous(
+        lambda mass: ll.make("CartPoleContinuous",
             pole_mass=mass, reward="smooth", theta_threshold_radians=math.inf, x_threshold=math.inf
         )
     )(jnp.full((num_envs,), 0.1))
@@ -39,7 +39,7 @@ def test_policy_trained_through_the_simulator_balances_for_500_steps():
 def test_rewarded_steps_count_the_first_rewards_of_a_longer_rollout():
     # What lets every stage of train_policy_curriculum share one compiled update.
     inf = float("inf")
-    env = ll.CartPoleContinuous(reward="smooth", theta_threshold_radians=inf, x_threshold=inf)
+    env = ll.make("CartPoleContinuous", reward="smooth", theta_threshold_radians=inf, x_threshold=inf)
     policy = MLPPolicy(4, 1, width=8, key=jr.key(0))
     state = EnvState(y=jnp.array([0.1, 0.0, 0.15, -0.1]), steps=jnp.zeros((), dtype=int))
     short = policy_return(env, policy, state, 20, key=jr.key(1))

@@ -42,7 +42,7 @@ def _space(space) -> str:
 
 def _default_solver(scene) -> str:
     field = next(field for field in dataclasses.fields(scene) if field.name == "integrator")
-    return f'"{field.metadata["solver"]}"'
+    return f'"{field.default}"'
 
 
 def _expected(name: str, scene) -> list[str]:

@@ -153,7 +153,7 @@ def test_the_scene_rolls_onto_the_closed_form_limit_cycle():
 
     import lerax_like as ll
 
-    env = ll.RimlessWheel(solver="dopri8", stepsize_controller=diffrax.PIDController(rtol=1e-12, atol=1e-12),
+    env = ll.make("RimlessWheel", solver="dopri8", stepsize_controller=diffrax.PIDController(rtol=1e-12, atol=1e-12),
                           max_steps=100_000)
     wheel = env.dynamics
     after_strike = float(wheel.slope - wheel.spoke_half_angle)
@@ -182,7 +182,7 @@ def test_hybrid_reference_trajectories_of_a_dropped_ball_match_the_closed_form()
     import lerax_like as ll
     from lerax_like.analysis.hybrid_reference import hybrid_reference_trajectories
 
-    env = ll.BouncingBall(dt=0.5, restitution=0.8)
+    env = ll.make("BouncingBall", dt=0.5, restitution=0.8)
     g, h, e = float(env.dynamics.gravity), 1.0, 0.8
     states, inside = hybrid_reference_trajectories(
         env, np.array([[0.0, h, 0.0, 0.0]]), np.zeros((1, 2)), 0.5, np.array([0.25]), rtol=1e-13, atol=1e-13

@@ -56,7 +56,7 @@ CONFIGURATIONS: dict[str, tuple[str, dict]] = {
 
 
 def build(scene: str, keywords: dict):
-    return ll.SCENES[scene](**keywords)
+    return ll.make(scene, **keywords)
 
 
 def rollout_of(scene: str, keywords: dict) -> dict[str, np.ndarray]:

@@ -209,11 +209,11 @@ def test_vec_env_attributes_seeds_and_bad_arguments():
     assert len(images) == 4 and images[0].dtype == np.uint8
     # A scene of other parameters for some envs (tests/test_sb3_contract.py steps them);
     # one of another configuration (a solver) would need another program: refused.
-    heavy = lerax_like.CartPole(pole_mass=0.5)
+    heavy = lerax_like.make("CartPole", pole_mass=0.5)
     venv.set_attr("scene", heavy, indices=[0])
     assert [scene is heavy for scene in venv.get_attr("scene")] == [True, False, False, False]
     with pytest.raises(ValueError, match="more than its array parameters"):
-        venv.set_attr("scene", lerax_like.CartPole(solver="rk4"), indices=[1])
+        venv.set_attr("scene", lerax_like.make("CartPole", solver="rk4"), indices=[1])
     with pytest.raises(ValueError, match="env_id must be one of"):
         lerax_like.sb3.make_vec_env("CartPole-v1", n_envs=2)
     with pytest.raises(ValueError, match="wrapper_class"):

@@ -45,12 +45,12 @@ def _package_scenes():
 
 
 def test_every_scene_under_scenes_is_registered():
-    # A forgotten line in `scenes/__init__.py` would otherwise leave a scene out of every
-    # test, study and Gymnasium id, silently.
+    # A forgotten `@register_scene` (or import in `scenes/__init__.py`) would otherwise leave a
+    # scene out of every test, study and Gymnasium id, silently.
     scenes = _package_scenes()
     assert scenes, "no scene found under lerax_like/scenes/"
     missing = [scene.__name__ for scene in scenes if ll.SCENES.get(scene.__name__) is not scene]
-    assert not missing, f"add to _REGISTERED in lerax_like/scenes/__init__.py: {missing}"
+    assert not missing, f"decorate with @register_scene and import in lerax_like/scenes/__init__.py: {missing}"
     # And the search finds every scene the package registers: it would see a forgotten one.
     registered = {scene for scene in ll.SCENES.values() if scene.__module__.startswith(ll.scenes.__name__)}
     assert registered == set(scenes)
@@ -73,9 +73,9 @@ def test_register_scene_refuses_what_is_not_a_concrete_final_scene():
     class Unscaled(ll.AbstractUnitActionEnv):  # a unit action that says neither how it acts nor its scale
         stochastic: typing.ClassVar[bool] = False
         action_size: typing.ClassVar[int] = 1
-        dynamics: ll.VanDerPolDynamics = ll.env.dynamics(ll.VanDerPolDynamics)
-        integrator: ll.Integrator = ll.env.integrator("rk4")
-        dt: jax.Array = ll.env.time_step(0.05)
+        dynamics: ll.VanDerPolDynamics = eqx.field(default_factory=ll.VanDerPolDynamics)
+        integrator: ll.Integrator = eqx.field(default="rk4", converter=ll.make_integrator)
+        dt: jax.Array = eqx.field(default=0.05, converter=ll.POSITIVE)
         max_episode_steps: int | None = ll.env.episode_limit(10)
         initial_bounds = worst_reward = None
 
@@ -154,11 +154,11 @@ def test_construction_errors_name_the_parameter(name):
     assert names, f"{name} declares no checked parameter"
     for parameter in names:
         with pytest.raises(ValueError, match=parameter):
-            scene(**{parameter: np.nan})
+            ll.make(scene, **{parameter: np.nan})
         with pytest.raises(TypeError, match=parameter):
-            scene(**{parameter: "heavy"})
+            ll.make(scene, **{parameter: "heavy"})
     with pytest.raises(TypeError, match="no_such_parameter"):
-        scene(no_such_parameter=1.0)
+        ll.make(scene, no_such_parameter=1.0)
 
 
 @pytest.mark.parametrize("name", NAMES)
@@ -169,7 +169,7 @@ def test_dynamics_may_be_given_as_a_module(name):
     assert env.dynamics is dynamics
     first = next(field.name for field in dataclasses.fields(dynamics) if eqx.is_array(getattr(dynamics, field.name)))
     with pytest.raises(TypeError, match="not both"):
-        scene(dynamics=dynamics, **{first: getattr(dynamics, first)})
+        ll.make(scene, dynamics=dynamics, **{first: getattr(dynamics, first)})
 
 
 @pytest.mark.parametrize("name", NAMES)
@@ -290,7 +290,7 @@ def test_energy_is_conserved_with_zero_input_where_claimed(name):
 def test_acrobot_nips_claims_no_energy_and_indeed_conserves_none():
     # The NeurIPS equations drop a Coriolis term: the book energy is not conserved.
     with jax.enable_x64(True):
-        env = ll.Acrobot(equations="nips")
+        env = ll.make("Acrobot", equations="nips")
         assert not env.physics.conserves_energy
         env = _tight(eqx.tree_at(lambda e: e.max_velocity_1, env, jnp.inf))
         state = ll.EnvState(y=jnp.array([1.0, 0.5, 0.0, 0.0]), steps=jnp.asarray(0))

@@ -76,7 +76,7 @@ keys = jr.split(jr.key(0), NUM_ENVS)
 for solver in ("euler", "tsit5"):
     # One env per batch element, pole masses differing: the parameters are batched too.
     pole_masses = jnp.linspace(0.05, 0.4, NUM_ENVS)
-    envs = eqx.filter_vmap(lambda m: lerax_like.CartPoleContinuous(pole_mass=m, solver=solver))(pole_masses)
+    envs = eqx.filter_vmap(lambda m: lerax_like.make("CartPoleContinuous", pole_mass=m, solver=solver))(pole_masses)
     run = eqx.filter_jit(eqx.filter_vmap(episode))
     unsharded = run(envs, keys)
     envs_sharded, keys_sharded = eqx.filter_shard((envs, keys), batch)

@@ -1,15 +1,16 @@
-"""Constructors say what they take: signatures read from the fields, typed blocks that are current,
-and a misspelt keyword answered with the closest valid one.
+"""Constructors are Equinox's own: the signature is the dataclass's, and says what the call takes;
+flat keywords are resolved in one place, `lerax_like.make`, which names the closest valid keyword
+to a misspelt one.
 
-Every registered scene (`ll.SCENES`, the test scenes included) and every final dynamics, add-on
+Every registered scene (`ll.SCENES`, the test scenes included) and every concrete dynamics, add-on
 and contact of the package is covered, so a scene or a field added later is checked with no line
-changed here. The expected keywords and defaults are read from `dataclasses.fields` of the class,
-of its dynamics and of its add-ons, and from `make_integrator`'s own signature, not listed here.
+changed here. The expected keywords and defaults are read from `dataclasses.fields`, not listed.
 """
 
 import dataclasses
 import inspect
-import re
+import pkgutil
+import importlib
 
 import equinox as eqx
 import gymnasium
@@ -18,154 +19,143 @@ import numpy as np
 import pytest
 
 import lerax_like as ll
-from lerax_like._constructor_source import (
-    constructor_source,
-    current,
-    final_classes,
-    groups,
-    keywords_module_current,
-)
-from lerax_like._fields import AbstractParametrised
+from lerax_like._fields import AbstractParametrised, parameter_range
+from lerax_like.scenes._make import flat_keywords
 
 
+def _package_classes() -> list[type]:
+    """Every concrete class of the package that is an Equinox module."""
+    found = {}
+    for module in pkgutil.walk_packages(ll.__path__, "lerax_like."):
+        if module.name.startswith(("lerax_like.sb3", "lerax_like.gymnax")) or module.name.endswith("__main__"):
+            continue
+        for value in vars(importlib.import_module(module.name)).values():
+            if isinstance(value, type) and value.__module__.startswith("lerax_like") and issubclass(value, eqx.Module):
+                found[f"{value.__module__}.{value.__qualname__}"] = value
+    return [cls for _, cls in sorted(found.items())]
+
+
+CLASSES = _package_classes()
+PARAMETRISED = [
+    cls for cls in CLASSES
+    if issubclass(cls, AbstractParametrised) and not inspect.isabstract(cls) and not cls.__name__.startswith("Abstract")
+]
 SCENES = sorted(ll.SCENES.items())
-PARAMETRISED = sorted(
-    {cls for cls in final_classes() if issubclass(cls, AbstractParametrised)}
-    | {scene.__dataclass_fields__["dynamics"].default_factory().__class__ for _, scene in SCENES},
-    key=lambda cls: cls.__name__,
-)
 
 
-def plain_default(field: dataclasses.Field):
-    """A field's default as declared, or `MISSING` when it is built per instance."""
-    if field.metadata.get("default_from") is not None:
-        return dataclasses.MISSING
-    return field.default
+def test_no_class_of_the_package_defines_a_signature_and_every_init_is_a_plain_function():
+    for cls in CLASSES:
+        for klass in cls.__mro__:
+            assert "__signature__" not in vars(klass), klass
+        assert inspect.isfunction(cls.__init__), cls
 
 
 @pytest.mark.parametrize("cls", PARAMETRISED, ids=lambda cls: cls.__name__)
-def test_a_dynamics_signature_lists_its_fields_with_their_defaults(cls):
+def test_a_signature_is_the_dataclass_fields_with_their_defaults(cls):
     parameters = inspect.signature(cls).parameters
     fields = [field for field in dataclasses.fields(cls) if field.init]
-    assert list(parameters) == [field.name for field in fields]
+    assert sorted(parameters) == sorted(field.name for field in fields)
     for field in fields:
-        default = plain_default(field)
-        if default is dataclasses.MISSING:
-            assert parameters[field.name].default is inspect.Parameter.empty
-        else:
-            assert parameters[field.name].default == default, field.name
+        shown = parameters[field.name].default
+        if field.default is not dataclasses.MISSING:
+            assert shown == field.default, field.name
+        elif field.default_factory is dataclasses.MISSING:
+            assert shown is inspect.Parameter.empty, field.name
+
+
+@pytest.mark.parametrize("cls", PARAMETRISED, ids=lambda cls: cls.__name__)
+def test_a_positional_call_is_accepted_exactly_when_the_signature_binds_it(cls):
+    signature = inspect.signature(cls)
+    positional = [
+        p for p in signature.parameters.values() if p.kind is inspect.Parameter.POSITIONAL_OR_KEYWORD
+    ]
+    required = {p.name: _a_value(cls, p.name) for p in signature.parameters.values() if p.default is p.empty}
+    keyword_only = {name: value for name, value in required.items() if signature.parameters[name].kind is inspect.Parameter.KEYWORD_ONLY}
+    # Every positional parameter given by position, in order: the signature binds it, so the call works.
+    values = [required.get(p.name, _default_of(cls, p.name)) for p in positional]
+    signature.bind(*values, **keyword_only)
+    assert eqx.tree_equal(cls(*values, **keyword_only), cls(**{p.name: v for p, v in zip(positional, values)}, **keyword_only))
+    # One more positional value than the signature has places for: refused by both.
+    with pytest.raises(TypeError):
+        signature.bind(*values, None, **keyword_only)
+    with pytest.raises(TypeError):
+        cls(*values, None, **keyword_only)
+    for name, value in keyword_only.items():  # a keyword-only parameter given by position: refused by both
+        others = {k: v for k, v in keyword_only.items() if k != name}
+        with pytest.raises(TypeError):
+            signature.bind(*values, value, **others)
+        with pytest.raises(TypeError):
+            cls(*values, value, **others)
+
+
+def _default_of(cls, name):
+    field = {f.name: f for f in dataclasses.fields(cls)}[name]
+    return field.default if field.default is not dataclasses.MISSING else field.default_factory()
+
+
+def _a_value(cls, name):
+    """A valid value for a required field: a coefficient (0.5 lies in every range they have) or
+    the dynamics that `ForcedDynamics` adds forces to."""
+    if name == "dynamics":
+        return ll.CartPoleDynamics()
+    assert parameter_range({f.name: f for f in dataclasses.fields(cls)}[name]) is not None, (cls, name)
+    return 0.5
 
 
 @pytest.mark.parametrize(("name", "scene"), SCENES, ids=[name for name, _ in SCENES])
-def test_a_scenes_signature_lists_fields_dynamics_integrator_and_addons_with_defaults(name, scene):
-    parameters = inspect.signature(scene).parameters
-    fields = {field.name: field for field in dataclasses.fields(scene) if field.init}
-    for field in fields.values():
-        assert field.name in parameters
-        if plain_default(field) is not dataclasses.MISSING:
-            assert parameters[field.name].default == field.default, field.name
-    # The flat keywords: the defaults of the dynamics that the scene builds by default.
+def test_make_takes_the_fields_the_dynamics_parameters_the_integrator_settings_and_the_addons(name, scene):
+    taken = flat_keywords(scene)
+    fields = {field.name for field in dataclasses.fields(scene) if field.init}
+    assert taken["scene"] == fields | {alias for alias, _ in scene.aliases}
     built = scene()
-    for field in dataclasses.fields(built.dynamics):
-        if field.name in fields:
-            continue
-        assert field.name in parameters, f"{name} does not show its dynamics' {field.name}"
-        shown, value = parameters[field.name].default, getattr(built.dynamics, field.name)
-        if field.metadata.get("parameter"):
-            np.testing.assert_array_equal(np.asarray(shown, float), np.asarray(value), err_msg=field.name)
-        else:
-            assert shown == value, field.name
-    for keyword, default in inspect.signature(ll.make_integrator).parameters.items():
-        assert keyword in parameters
-        if keyword != "solver":
-            assert parameters[keyword].default == default.default
+    assert taken["dynamics"] == {f.name for f in dataclasses.fields(built.dynamics) if f.init} - fields
+    assert taken["integrator"] == set(inspect.signature(ll.make_integrator).parameters)
     for addon in scene.addons:
-        for field in dataclasses.fields(addon):
-            assert parameters[field.name].default is None, "an add-on is absent unless its keywords are given"
-    for alias, _ in scene.aliases:
-        assert alias in parameters
-    # Nothing else: every keyword shown is taken.
-    takes = set(fields) | {f.name for f in dataclasses.fields(built.dynamics)}
-    takes |= set(inspect.signature(ll.make_integrator).parameters) | {alias for alias, _ in scene.aliases}
-    takes |= {field.name for addon in scene.addons for field in dataclasses.fields(addon)}
-    assert set(parameters) == takes
-
-
-@pytest.mark.parametrize(("name", "scene"), SCENES, ids=[name for name, _ in SCENES])
-def test_a_scene_built_from_its_shown_defaults_is_its_default(name, scene):
-    """The defaults shown are the ones used: passing them all (flat) builds the default scene."""
-    shown = {
-        keyword: parameter.default
-        for keyword, parameter in inspect.signature(scene).parameters.items()
-        if isinstance(parameter.default, (bool, int, float, str, tuple))
-        and keyword not in {alias for alias, _ in scene.aliases}
-        and keyword not in {"forces", "contacts"}
+        assert taken[addon.__name__] == {f.name for f in dataclasses.fields(addon)} - fields
+    # The defaults of the flat keywords are those of the default build.
+    flat = {
+        keyword: getattr(built.dynamics, keyword) for keyword in taken["dynamics"]
     }
-    assert bool(eqx.tree_equal(scene(**shown), scene()))
-
-
-def test_the_cartpole_signature_prints_its_keywords():
-    text = str(inspect.signature(ll.CartPole))
-    for keyword in ("pole_mass: 'ScalarLike' = 0.1", "dt: 'ScalarLike' = 0.02", "solver:", "joint_damping:", "restitution:"):
-        assert keyword in text
-    assert "pole_mass" in (ll.CartPole.__init__.__doc__ or "") or "pole_mass" in str(inspect.signature(ll.CartPole.__init__))
-
-
-@pytest.mark.parametrize("cls", final_classes(), ids=lambda cls: cls.__name__)
-def test_every_final_class_declares_its_constructor_to_a_type_checker(cls):
-    assert current(cls), (
-        f"{cls.__module__}.{cls.__name__}'s constructor block is not current: run "
-        f"`python -m lerax_like._constructor_source --write`, or paste after its docstring:\n\n{constructor_source(cls)}"
-    )
-
-
-def test_the_shared_keywords_module_is_current_and_each_group_is_declared_once():
-    assert keywords_module_current(), (
-        "lerax_like/_keywords.py is not current: run `python -m lerax_like._constructor_source --write`"
-    )
-    import lerax_like._keywords as shared
-
-    for group in groups():
-        declared = getattr(shared, group.name).__annotations__
-        assert list(declared) == [key for key, _ in group.keywords], group.name
-    # Each group's keywords stand in the module once, and in no block: a block lists only its own.
-    for cls in final_classes():
-        block = constructor_source(cls)
-        listed = set(re.findall(r"^ {12}(\w+):", block, re.MULTILINE))
-        for group in groups():
-            if re.search(rf"\b{group.name}\b", block):
-                assert not listed & {key for key, _ in group.keywords}, (cls.__name__, group.name)
-
-
-@pytest.mark.parametrize(("name", "scene"), SCENES, ids=[name for name, _ in SCENES])
-def test_a_scenes_block_takes_exactly_the_keywords_of_its_signature(name, scene):
-    """What a block declares (its own keywords and its groups') is what the runtime signature takes."""
-    if not scene.__module__.startswith("lerax_like."):
-        pytest.skip("a test scene declares no block")
-    block = constructor_source(scene)
-    taken = set(re.findall(r"^ {12}(\w+):", block, re.MULTILINE))
-    taken |= {key for group in groups() if re.search(rf"\b{group.name}\b", block) for key, _ in group.keywords}
-    assert taken == set(inspect.signature(scene).parameters), name
+    assert bool(eqx.tree_equal(ll.make(scene, **flat), built))
 
 
 @pytest.mark.parametrize(
     ("build", "keyword", "nearest"),
     [
-        (lambda: ll.CartPole(pole_mas=0.2), "pole_mas", "pole_mass"),  # the dynamics'
-        (lambda: ll.CartPole(restitutoin=0.5), "restitutoin", "restitution"),  # an add-on's
-        (lambda: ll.CartPole(stepsize_controler=None), "stepsize_controler", "stepsize_controller"),  # the integrator's
-        (lambda: ll.Pendulum(max_sped=8.0), "max_sped", "max_speed"),  # the task's
-        (lambda: ll.CartPoleDynamics(gravty=9.8), "gravty", "gravity"),
-        (lambda: ll.physics.JointDamping(joint_dampng=0.1), "joint_dampng", "joint_damping"),
+        (lambda: ll.make("CartPole", pole_mas=0.2), "pole_mas", "pole_mass"),  # the dynamics'
+        (lambda: ll.make("CartPole", restitutoin=0.5), "restitutoin", "restitution"),  # an add-on's
+        (lambda: ll.make("CartPole", stepsize_controler=None), "stepsize_controler", "stepsize_controller"),  # the integrator's
+        (lambda: ll.make("Pendulum", max_sped=8.0), "max_sped", "max_speed"),  # the task's
+        (lambda: gymnasium.make("lerax_like/CartPole-v1", gravty=9.8), "gravty", "gravity"),  # Gymnasium's
     ],
 )
-def test_a_misspelt_keyword_names_the_closest_valid_one(build, keyword, nearest):
+def test_a_misspelt_flat_keyword_names_the_closest_valid_one(build, keyword, nearest):
     with pytest.raises(TypeError, match=rf"unknown keyword\(s\) {keyword} \(did you mean {nearest}\?\)"):
         build()
 
 
-def test_gymnasium_keywords_still_reach_the_dynamics():
+def test_a_misspelt_field_is_refused_by_the_dataclass():
+    with pytest.raises(TypeError, match="gravty"):
+        ll.CartPoleDynamics(gravty=9.8)  # pyright: ignore[reportCallIssue]
+    with pytest.raises(TypeError, match="joint_dampng"):
+        ll.physics.JointDamping(joint_dampng=0.1)  # pyright: ignore[reportCallIssue]
+
+
+def test_make_and_gymnasium_keywords_reach_the_dynamics_and_a_class_is_taken_as_well_as_a_name():
     env = gymnasium.make("lerax_like/CartPole-v1", gravity=3.7)
     assert float(env.unwrapped.scene.dynamics.gravity) == 3.7
-    assert float(ll.Pendulum(g=3.7).dynamics.gravity) == 3.7
-    assert float(ll.CartPole(pole_mass=jnp.asarray(0.2)).dynamics.pole_mass) == 0.2
+    assert float(ll.make("Pendulum", g=3.7).dynamics.gravity) == 3.7
+    assert float(ll.make(ll.CartPole, pole_mass=jnp.asarray(0.2)).dynamics.pole_mass) == 0.2
+    np.testing.assert_array_equal(
+        np.asarray(ll.make("CartPole", pole_mass=0.2).dynamics.pole_mass),
+        np.asarray(ll.CartPole(dynamics=ll.CartPoleDynamics(pole_mass=0.2)).dynamics.pole_mass),
+    )
+    with pytest.raises(ValueError, match="did you mean CartPole"):
+        ll.make("CartPol")
+
+
+def test_the_integrator_field_converts_a_preset_name_or_a_solver():
+    assert isinstance(ll.CartPole(integrator="rk4").integrator.solver, ll.RK4)
+    assert bool(eqx.tree_equal(ll.CartPole(integrator="tsit5"), ll.make("CartPole", solver="tsit5")))
+    with pytest.raises(TypeError, match="either integrator= or solver settings"):
+        ll.make("CartPole", integrator="rk4", solver="euler")

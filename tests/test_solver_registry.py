@@ -128,7 +128,7 @@ def test_register_a_solver_and_use_it_by_name():
         assert (preset.stages, preset.evaluations_per_step, preset.error_estimate) == (4, 3, True)
         integrator = ll.make_integrator("bosh3")
         assert isinstance(integrator.solver, diffrax.Bosh3) and integrator.adaptive
-        env = ll.CartPole(solver="bosh3", stepsize_controller=diffrax.ConstantStepSize())
+        env = ll.make("CartPole", solver="bosh3", stepsize_controller=diffrax.ConstantStepSize())
         assert isinstance(env.integrator.solver, diffrax.Bosh3)
         assert solver_from_spec("BOSH3") == "bosh3"
         assert describe_solver(diffrax.Bosh3()).name == "bosh3"

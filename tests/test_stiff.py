@@ -44,7 +44,7 @@ def _van_der_pol_reference(mu, y0, t1, force=0.0):
 
 @pytest.mark.slow
 def test_van_der_pol_kvaerno5_reaches_t3000_as_radau():
-    env = ll.VanDerPol(mu=1000.0, dt=10.0, solver="kvaerno5")
+    env = ll.make("VanDerPol", mu=1000.0, dt=10.0, solver="kvaerno5")
     ys, infos = _rollout_info(env, [2.0, 0.0], 300)
     assert bool(jnp.all(infos["solver_ok"]))
     # About 20 accepted steps per env step of 10 s, not the ~1e4 an explicit solver needs.
@@ -63,7 +63,7 @@ def test_a_diverged_trial_step_is_rejected_and_retried_smaller(preset):
     # second trial step diverges to infinity; a plain diffrax 0.7.2 PIDController then
     # computes a NaN step size and rejects all 100000 steps of the budget.
     y0, force = [-0.19642639, 0.17118835], -0.22940977
-    env = ll.VanDerPol(mu=1000.0, dt=30.0, solver=preset, stepsize_controller=diffrax.PIDController(rtol=1e-4, atol=1e-7))
+    env = ll.make("VanDerPol", mu=1000.0, dt=30.0, solver=preset, stepsize_controller=diffrax.PIDController(rtol=1e-4, atol=1e-7))
     state = ll.EnvState(y=jnp.asarray(y0), steps=jnp.zeros((), dtype=int))
     next_state, info = eqx.filter_jit(lambda env, state: env.transition(state, jnp.asarray([force]), key=None))(env, state)
     assert bool(info["solver_ok"])
@@ -86,7 +86,7 @@ def test_guarded_controller_shrinks_the_step_after_an_infinite_candidate():
 
 
 def test_van_der_pol_tsit5_reports_exhausted_budget_without_raising():
-    env = ll.VanDerPol(mu=1000.0, dt=10.0, solver=ll.make_integrator("tsit5", max_steps=64))
+    env = ll.make("VanDerPol", mu=1000.0, dt=10.0, solver=ll.make_integrator("tsit5", max_steps=64))
     state = ll.EnvState(y=jnp.array([2.0, 0.0]), steps=jnp.zeros((), dtype=int))
     step = eqx.filter_jit(lambda env, state, key: env.step(state, jnp.zeros(1), key=key))
     next_state, observation, reward, terminated, truncated, info = step(env, state, jax.random.key(1))

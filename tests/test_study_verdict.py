@@ -8,7 +8,8 @@ import jax
 import numpy as np
 import pytest
 
-from lerax_like.analysis import SolverSweep, StudyConfig, make_scene, reference_trajectories, run_study
+from lerax_like.analysis import SolverSweep, StudyConfig, reference_trajectories, run_study
+from lerax_like import make as make_scene
 from lerax_like.analysis.figures import order_guide
 from lerax_like.analysis.measurements import conserved_quantities
 from lerax_like.analysis.recording import read_csv_rows

@@ -10,7 +10,7 @@ from lerax_like.env import EnvState
 
 def test_swing_up_reaches_upright():
     inf = float("inf")
-    env = ll.CartPoleContinuous(solver="rk4", theta_threshold_radians=inf, x_threshold=inf)
+    env = ll.make("CartPoleContinuous", solver="rk4", theta_threshold_radians=inf, x_threshold=inf)
     y0 = jnp.array([0.0, 0.0, jnp.pi, 0.0])
 
     def objective(ys):

@@ -61,7 +61,7 @@ from .reference import (
     reference_trajectories as reference_trajectories,
 )
 from .rollout_check import preset_rollouts as preset_rollouts
-from .scenes import SCENES as SCENES, make_scene as make_scene, reference_method as reference_method
+from .scenes import SCENES as SCENES, reference_method as reference_method
 from .study import (
     CSV_COLUMNS as CSV_COLUMNS,
     SCHEDULES as SCHEDULES,
@@ -89,19 +89,3 @@ from .verdict import (
     group_settings as group_settings,
     timing_unresolved as timing_unresolved,
 )
-
-import importlib as _importlib
-import sys as _sys
-
-from .._module_attributes import moved_names as _moved_names
-
-# The gradient tools moved to `lerax_like.gradients`; the old imports work and warn.
-__getattr__ = _moved_names(__name__, {
-    "lerax_like.gradients": ("GradCheckReport", "LeafCheck", "gradcheck", "sensitivity_signs"),
-})
-# `analysis.gradcheck` was a module and, here, the function. Loading the old module now (it only
-# warns and forwards) and taking back the name the import binds to it keeps both as they were:
-# `from lerax_like.analysis import gradcheck` is the function, whether or not
-# `lerax_like.analysis.gradcheck` was imported first (the import would rebind the name later).
-_importlib.import_module(f"{__name__}.gradcheck")
-delattr(_sys.modules[__name__], "gradcheck")

@@ -254,10 +254,10 @@ def scene_gait(name: str, keywords: dict[str, float] | None = None, *, sensitivi
     passive gait). With `sensitivity`, also the derivatives of the fixed point and of the
     largest eigenvalue's modulus w.r.t. every physical parameter.
     """
-    from .scenes import make_scene
+    from .scenes import make
 
     jax.config.update("jax_enable_x64", True)  # a gait's digits need float64
-    scene = make_scene(name, **(keywords or {}))
+    scene = make(name, **(keywords or {}))
     low, high = scene.initial_bounds
     dynamics = jax.tree.map(lambda leaf: jnp.asarray(leaf, jnp.float64) if eqx.is_inexact_array(leaf) else leaf, scene.dynamics)
     gait = find_gait(dynamics, (jnp.asarray(low, jnp.float64) + jnp.asarray(high, jnp.float64)) / 2)

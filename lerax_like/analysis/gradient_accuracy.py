@@ -27,7 +27,6 @@ import numpy as np
 from jax.flatten_util import ravel_pytree
 
 from .._fields import check_count
-from .._module_attributes import moved_names
 from .._types import Array, BoolScalar, Float, Scalar, State
 from ..env import AbstractEnv, EnvState, rollout
 from ..gradients import reference_integrator, selection_spec, with_adjoint, with_integrator
@@ -37,7 +36,7 @@ from .figures import plot_gradient_work_precision
 from .parameters import check_parameter_names, parameter_names, parameter_where
 from .recording import PLOT_HINT, environment_record, matplotlib_available, write_record
 from .recording import write_csv as write_rows
-from .scenes import SCENES, make_scene
+from .scenes import SCENES, make
 from .sweeps import SolverSweep, tolerance_pairs
 
 
@@ -307,7 +306,7 @@ class GradientStudyConfig:
         settings: dict[str, Any] = dict(scene=scene, sweeps=default_gradient_sweeps(quick=quick))
         if quick:
             settings.update(repeats=3)
-            if scene in SCENES and getattr(make_scene(scene, **overrides.get("scene_kwargs", {})), "friction", ()):
+            if scene in SCENES and getattr(make(scene, **overrides.get("scene_kwargs", {})), "friction", ()):
                 # The reference through friction costs six SciPy rollouts per parameter.
                 settings.update(horizon=20)
         settings.update(overrides)
@@ -353,7 +352,7 @@ def run_gradient_study(config: GradientStudyConfig) -> GradientStudyResult:
 
 
 def _run_gradient_study(config: GradientStudyConfig) -> GradientStudyResult:
-    env = make_scene(config.scene, **config.scene_kwargs)
+    env = make(config.scene, **config.scene_kwargs)
     if config.parameters is not None:
         check_parameter_names(env, config.parameters, config.scene)
     initial_key, action_key = jr.split(jr.key(config.seed))
@@ -451,4 +450,3 @@ def write_gradient_study(
 
 
 # The sensitivities are gradient tools, in `lerax_like.gradients` now.
-__getattr__ = moved_names(__name__, {"lerax_like.gradients": ("sensitivity_signs", "trajectory_sensitivity")})

@@ -13,7 +13,7 @@ import numpy as np
 from ..env import rollout
 from ..integrate import SOLVERS, make_integrator
 from .reference import reference_trajectories
-from .scenes import make_scene, reference_method
+from .scenes import make, reference_method
 
 
 @eqx.filter_jit
@@ -34,7 +34,7 @@ def preset_rollouts(
     rollout (minimum of `repeats`) and the solver steps taken.
     """
     with jax.enable_x64(True):
-        env = make_scene(scene)
+        env = make(scene)
         initial_key, action_key, rollout_key = jr.split(jr.key(seed), 3)
         state = env.initial(key=initial_key)
         actions = jax.vmap(lambda k: env.action_space.sample(key=k))(jr.split(action_key, steps))

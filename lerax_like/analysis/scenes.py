@@ -1,4 +1,4 @@
-"""Scenes by name, for the studies: `make_scene("CartPole", solver="rk4")`.
+"""Scenes by name, for the studies: `make("CartPole", solver="rk4")` (`lerax_like.make`).
 
 Everything reads the one registry, `lerax_like.SCENES`, and the metadata each scene class
 declares: `stiff` (the SciPy reference then uses Radau instead of DOP853) and whether it
@@ -9,17 +9,7 @@ state after each step is measured against the unclipped motion, which is the rig
 reference only while the projection stays inactive.
 """
 
-from ..env import AbstractEnv
-from ..scenes import SCENES
-
-
-def make_scene(name: str, **kwargs) -> AbstractEnv:
-    """The env registered as `name`, built with `kwargs` (its constructor's keywords)."""
-    try:
-        scene = SCENES[name]
-    except KeyError:
-        raise ValueError(f"unknown scene {name!r}; known scenes: {', '.join(SCENES)}") from None
-    return scene(**kwargs)
+from ..scenes import SCENES, make
 
 
 def reference_method(name: str) -> str:
@@ -27,4 +17,4 @@ def reference_method(name: str) -> str:
     return "Radau" if SCENES[name].stiff else "DOP853"
 
 
-__all__ = ["SCENES", "make_scene", "reference_method"]
+__all__ = ["SCENES", "make", "reference_method"]

@@ -18,7 +18,7 @@ import optimistix as optx
 
 from .._types import Array, Float
 from ..env import AbstractEnv, EnvState, rollout
-from ..gradients import with_adjoint
+from ..integrate import with_adjoint
 
 
 def multiple_shooting_residuals(

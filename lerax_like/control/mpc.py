@@ -17,7 +17,7 @@ import numpy as np
 
 from .._types import Array, BoolScalar, Float, Key, Scalar
 from ..env import AbstractEnv, EnvState
-from ..gradients import with_adjoint
+from ..integrate import with_adjoint
 from .identification import fit_parameters
 from .ilqr import ilqr
 

@@ -3,9 +3,8 @@ sensitivities and Lyapunov exponents.
 
 One concept per private module, the public names re-exported here:
 
-- `_adjoint`: how gradients pass through an env's solves (`ADJOINTS`, `make_adjoint`,
-  `with_adjoint`, and what the integrator and the env step use: `CHECKPOINTS`,
-  `sized_to_the_work`, `forward_mode_hint`, `warn_if_silent`);
+- how gradients pass through an env's solves (`ADJOINTS`, `make_adjoint`, `with_adjoint`,
+  `CHECKPOINTS`) is the integrator's configuration: `lerax_like.integrate`, re-exported here;
 - `_gradcheck`: autodiff against central finite differences, leaf by leaf (`gradcheck`);
 - `_estimators`: the first-order, zeroth-order and interpolated estimators of the gradient
   of a Gaussian-smoothed objective, and their unbiased reference (`estimate_gradients`);
@@ -14,18 +13,14 @@ One concept per private module, the public names re-exported here:
 - `_lyapunov`: finite-time Lyapunov exponents of a step map (`finite_time_lyapunov`).
 
 The tools take values (a function, a tree, a state, arrays), not a study's configuration;
-the studies that use them are in `lerax_like.analysis`. `lerax_like.env` and
-`lerax_like.integrate` import this package, so nothing here imports them (or SciPy) at
-module level.
+the studies that use them are in `lerax_like.analysis`. They sit above the env and the
+integrator, which they use; nothing here imports SciPy at module level.
 """
 
-from ._adjoint import (
+from ..integrate import (
     ADJOINTS as ADJOINTS,
     CHECKPOINTS as CHECKPOINTS,
-    forward_mode_hint as forward_mode_hint,
     make_adjoint as make_adjoint,
-    sized_to_the_work as sized_to_the_work,
-    warn_if_silent as warn_if_silent,
     with_adjoint as with_adjoint,
 )
 from ._estimators import (
@@ -59,16 +54,13 @@ __all__ = [
     "alpha_weight",
     "estimate_gradients",
     "finite_time_lyapunov",
-    "forward_mode_hint",
     "gradcheck",
     "make_adjoint",
     "per_sample_statistics",
     "reference_integrator",
     "selection_spec",
     "sensitivity_signs",
-    "sized_to_the_work",
     "trajectory_sensitivity",
-    "warn_if_silent",
     "with_adjoint",
     "with_integrator",
 ]

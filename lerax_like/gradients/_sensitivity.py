@@ -4,40 +4,31 @@ The env's gradient (under `"checkpoint"` or `"forward"`) is the exact derivative
 *discrete* solution; the continuous system's differs from it by an error of the order of
 the solver's, which can flip a sensitivity's sign. `sensitivity_signs` finds where, against
 `reference_integrator` (Dopri8 at tight tolerances), the stand-in for the continuous system.
-
-The env and the integrators are imported where they are used: `lerax_like.env` and
-`lerax_like.integrate` import this package.
 """
 
 import math
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import jax.random as jr
+import diffrax
 import numpy as np
 
 from .._types import Array, Float, State
-from ._adjoint import with_adjoint
+from ..env import AbstractEnv, EnvState, rollout
+from ..integrate import Integrator, make_integrator, with_adjoint
 
 
-if TYPE_CHECKING:
-    from ..env import AbstractEnv
-    from ..integrate import Integrator
-
-
-def with_integrator(env: "AbstractEnv", integrator: "Integrator") -> "AbstractEnv":
+def with_integrator(env: AbstractEnv, integrator: Integrator) -> AbstractEnv:
     """`env` with its integrator replaced."""
     return eqx.tree_at(lambda e: e.integrator, env, integrator)
 
 
-def reference_integrator(rtol: float = 1e-12, dtmax: float = math.inf) -> "Integrator":
+def reference_integrator(rtol: float = 1e-12, dtmax: float = math.inf) -> Integrator:
     """Dopri8 at tight tolerances (`atol = rtol / 100`): the stand-in for the continuous system."""
-    import diffrax
-
-    from ..integrate import make_integrator
 
     # Tolerances and largest step as arrays, not Python floats or None: they are then
     # traced leaves, and the reference and its floor estimate share one compilation.
@@ -47,13 +38,12 @@ def reference_integrator(rtol: float = 1e-12, dtmax: float = math.inf) -> "Integ
 
 
 def trajectory_sensitivity(
-    env: "AbstractEnv", where: Callable[["AbstractEnv"], Array], y0: State, actions: Array
+    env: AbstractEnv, where: Callable[[AbstractEnv], Array], y0: State, actions: Array
 ) -> Float[Array, "T n"]:
     """`d ys / d where(env)` along a rollout, shape `(T, n)`, by forward mode (one pass).
 
     `where(env)` must be a scalar leaf; the env's integrator gets the forward adjoint.
     """
-    from ..env import EnvState, rollout
 
     env = with_adjoint(env, "forward")
 
@@ -66,8 +56,8 @@ def trajectory_sensitivity(
 
 
 def sensitivity_signs(
-    env: "AbstractEnv",
-    where: Callable[["AbstractEnv"], Array],
+    env: AbstractEnv,
+    where: Callable[[AbstractEnv], Array],
     y0: State,
     actions: Array,
     component: int,

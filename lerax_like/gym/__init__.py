@@ -19,13 +19,6 @@ from ._renderers import (
 from ._specs import GymnasiumSpec as GymnasiumSpec, GymSpec as GymSpec, SPECS as SPECS
 from ._vector import GymnasiumVectorEnv as GymnasiumVectorEnv
 from . import envs as envs
-from .._module_attributes import deprecated_names
-from . import _specs
 
-# One table: the registered ids, `SPECS` (id -> `GymSpec`, whose `scene` and `declared`, a
-# `GymnasiumSpec`, are what the scene-keyed table held).
-__getattr__ = deprecated_names(
-    __name__, {"GYMNASIUM_SPECS": ("SPECS (by id; spec.scene, spec.declared)", lambda: _specs.GYMNASIUM_SPECS)}
-)
 
 __all__ = ["Batch", "Canvas", "GymSpec", "GymnasiumSpec", "GymnasiumEnv", "GymnasiumVectorEnv", "Outcome", "SPECS", "envs", "RENDERERS", "register_envs", "register_renderer", "render_frame"]

@@ -27,6 +27,7 @@ import jax.random as jr
 import numpy as np
 
 from ..env import AbstractEnv, EnvState, step_keys
+from ..scenes import make
 from ..spaces import Discrete
 
 
@@ -58,7 +59,7 @@ def build_scene(scene_cls: type[AbstractEnv], kwargs: dict[str, Any]) -> Abstrac
     """Construct the scene in float64, so that its parameters are Gymnasium's values
     (a float32 layer casts them to float32 once, in `SplitScene`)."""
     with float64():
-        return scene_cls(**kwargs)
+        return make(scene_cls, **kwargs)
 
 
 class Compiled(NamedTuple):

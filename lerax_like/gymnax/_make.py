@@ -4,6 +4,7 @@ import functools
 
 from ..gym import SPECS
 from ..scenes import SCENES
+from ..scenes import make as make_scene
 
 
 _INSTALL_HINT = (
@@ -46,7 +47,7 @@ def make(name: str, **keywords):
     classes = _scene_classes()
     if name not in classes:
         raise ValueError(f"unknown env {name!r}; lerax_like.gymnax.make takes one of: {', '.join(classes)}")
-    scene = classes[name](**keywords)
+    scene = make_scene(classes[name], **keywords)
     env = environment_class()(scene, name=name)
     return env, env.default_params
 

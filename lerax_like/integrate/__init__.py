@@ -5,9 +5,19 @@ One concept per module, as diffrax's `_solver/`: the solvers this package adds (
 of the implicit presets, `solver_facts` (order, stages, evaluations, error estimate: read
 once, by every listing, study and count), the presets by name (`SOLVERS`), and the
 `Integrator` that `make_integrator` builds from a preset name or a solver, refusing
-pairings that would silently produce garbage.
+pairings that would silently produce garbage, and how gradients pass through its solves
+(the adjoint: `make_adjoint`, `with_adjoint`).
 """
 
+from ._adjoint import (
+    ADJOINTS as ADJOINTS,
+    CHECKPOINTS as CHECKPOINTS,
+    forward_mode_hint as forward_mode_hint,
+    make_adjoint as make_adjoint,
+    sized_to_the_work as sized_to_the_work,
+    warn_if_silent as warn_if_silent,
+    with_adjoint as with_adjoint,
+)
 from ._controller import GuardedPIDController as GuardedPIDController
 from ._dense import HermiteDenseOutput as HermiteDenseOutput
 from ._facts import SolverFacts as SolverFacts, has_error_estimate as has_error_estimate, solver_facts as solver_facts
@@ -24,7 +34,3 @@ from ._presets import (
 from ._rk4 import RK4 as RK4
 from ._spec import solver_from_spec as solver_from_spec
 from ._semi_implicit import ProjectedODETerm as ProjectedODETerm, SemiImplicitEuler as SemiImplicitEuler
-from .._module_attributes import deprecated_names
-
-# `SOLVER_PRESETS` was the presets' names beside the table itself: one name now.
-__getattr__ = deprecated_names(__name__, {"SOLVER_PRESETS": ("SOLVERS.names", lambda: SOLVERS.names)})

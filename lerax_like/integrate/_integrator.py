@@ -10,7 +10,7 @@ import jax.numpy as jnp
 
 from .._fields import check_count
 from .._types import Array, BoolScalar, Input, IntScalar, ScalarLike, State
-from ..gradients import sized_to_the_work, warn_if_silent
+from ._adjoint import sized_to_the_work, warn_if_silent
 from ._controller import GuardedPIDController
 from ._dense import HermiteDenseOutput, needs_hermite_dense_output
 from ._facts import has_error_estimate

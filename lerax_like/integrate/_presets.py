@@ -20,7 +20,7 @@ class SolverPreset:
     """A solver by name: how to build it, and what a numerical analyst asks of it first.
 
     - `name`: the name accepted wherever a solver is (`make_integrator(name)`,
-      `CartPole(solver=name)`, `lerax-like study --solver name`).
+      `CartPole(integrator=name)`, `ll.make("CartPole", solver=name)`, `lerax-like study --solver name`).
     - `make_solver`: builds the solver (no arguments).
     - `order`: order of convergence of the method (global error `O(h^order)`).
     - `stages`: stages of one step (`None` if not a Runge--Kutta method);
@@ -206,7 +206,7 @@ class PresetNames(Sequence[str]):
 SOLVERS = SolverTable(_builtin_presets())
 """Every solver preset by name, the built-in ones and those added by `register_solver`."""
 
-"""Names accepted wherever a solver is: `make_integrator("rk4")`, `CartPole(solver="tsit5")`."""
+"""Names accepted wherever a solver is: `make_integrator("rk4")`, `CartPole(integrator="tsit5")`."""
 
 
 def register_solver(

@@ -1,8 +1,9 @@
-from typing import TYPE_CHECKING, ClassVar, Literal, final
+from typing import ClassVar, Literal, final
 
+import equinox as eqx
 import jax.numpy as jnp
 
-from .._fields import POSITIVE, option, parameter
+from .._fields import POSITIVE, option
 from .._types import Input, Scalar, ScalarLike, State
 from ._base import AbstractConservativeDynamics
 
@@ -22,24 +23,16 @@ class AcrobotDynamics(AbstractConservativeDynamics):
     from hanging straight down, `theta_2` link 2's angle relative to link 1.
     """
 
-    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        from typing import Unpack
-
-        from lerax_like._keywords import AcrobotDynamicsKeywords
-
-        def __init__(self, **keywords: Unpack[AcrobotDynamicsKeywords]) -> None: ...
-    # (end of the constructor written by python -m lerax_like._constructor_source)
-
     velocity_indices: ClassVar[tuple[int, ...]] = (2, 3)
 
-    gravity: Scalar = parameter(9.8, POSITIVE)
-    link_length_1: Scalar = parameter(1.0, POSITIVE)
-    link_mass_1: Scalar = parameter(1.0, POSITIVE)
-    link_mass_2: Scalar = parameter(1.0, POSITIVE)
-    link_com_position_1: Scalar = parameter(0.5, POSITIVE)
-    link_com_position_2: Scalar = parameter(0.5, POSITIVE)
-    link_moment_of_inertia_1: Scalar = parameter(1.0, POSITIVE)
-    link_moment_of_inertia_2: Scalar = parameter(1.0, POSITIVE)
+    gravity: Scalar = eqx.field(default=9.8, converter=POSITIVE)
+    link_length_1: Scalar = eqx.field(default=1.0, converter=POSITIVE)
+    link_mass_1: Scalar = eqx.field(default=1.0, converter=POSITIVE)
+    link_mass_2: Scalar = eqx.field(default=1.0, converter=POSITIVE)
+    link_com_position_1: Scalar = eqx.field(default=0.5, converter=POSITIVE)
+    link_com_position_2: Scalar = eqx.field(default=0.5, converter=POSITIVE)
+    link_moment_of_inertia_1: Scalar = eqx.field(default=1.0, converter=POSITIVE)
+    link_moment_of_inertia_2: Scalar = eqx.field(default=1.0, converter=POSITIVE)
     equations: Literal["book", "nips"] = option("book", ("book", "nips"))
 
     @property

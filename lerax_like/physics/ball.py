@@ -1,10 +1,11 @@
 """A point mass in the vertical plane under gravity, and the floor and wall it bounces on."""
 
-from typing import TYPE_CHECKING, ClassVar, final
+from typing import ClassVar, final
 
+import equinox as eqx
 import jax.numpy as jnp
 
-from .._fields import FINITE, POSITIVE, parameter
+from .._fields import FINITE, POSITIVE
 from .._types import Array, Float, Input, Scalar, ScalarLike, State
 from ._base import AbstractConservativeDynamics
 from .contact import RESTITUTION, AbstractImpulseContact
@@ -18,18 +19,10 @@ class BallDynamics(AbstractConservativeDynamics):
     `x'' = F_x / mass`, `z'' = F_z / mass - gravity`. Generalised coordinates `q = [x, z]`.
     """
 
-    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        from typing import Unpack
-
-        from lerax_like._keywords import BallDynamicsKeywords
-
-        def __init__(self, **keywords: Unpack[BallDynamicsKeywords]) -> None: ...
-    # (end of the constructor written by python -m lerax_like._constructor_source)
-
     velocity_indices: ClassVar[tuple[int, ...]] = (2, 3)
 
-    mass: Scalar = parameter(1.0, POSITIVE)
-    gravity: Scalar = parameter(9.81, POSITIVE)
+    mass: Scalar = eqx.field(default=1.0, converter=POSITIVE)
+    gravity: Scalar = eqx.field(default=9.81, converter=POSITIVE)
 
     def vector_field(self, t: ScalarLike, y: State, u: Input) -> State:
         del t
@@ -51,21 +44,9 @@ class FloorAndWall(AbstractImpulseContact):
     (m/s) the ball rests on the surface until the surface would have to pull.
     """
 
-    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-
-        def __init__(
-            self,
-            *,
-            max_events: int = 16,
-            restitution: ScalarLike = 0.8,
-            wall_position: ScalarLike = 1.0,
-            min_rebound_speed: ScalarLike = 0.01,
-        ) -> None: ...
-    # (end of the constructor written by python -m lerax_like._constructor_source)
-
-    restitution: Scalar = parameter(0.8, RESTITUTION)
-    wall_position: Scalar = parameter(1.0, FINITE)
-    min_rebound_speed: Scalar = parameter(1e-2, POSITIVE)
+    restitution: Scalar = eqx.field(default=0.8, converter=RESTITUTION)
+    wall_position: Scalar = eqx.field(default=1.0, converter=FINITE)
+    min_rebound_speed: Scalar = eqx.field(default=1e-2, converter=POSITIVE)
 
     def gaps(self, dynamics: BallDynamics, y: State) -> Float[Array, " 2"]:
         x, z = dynamics.coordinates(y)[0]

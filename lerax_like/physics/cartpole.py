@@ -1,8 +1,9 @@
-from typing import TYPE_CHECKING, ClassVar, final
+from typing import ClassVar, final
 
+import equinox as eqx
 import jax.numpy as jnp
 
-from .._fields import POSITIVE, parameter
+from .._fields import POSITIVE
 from .._types import Array, Float, Input, Scalar, ScalarLike, State
 from ._base import AbstractChainDynamics
 
@@ -25,21 +26,13 @@ class CartPoleDynamics(AbstractChainDynamics):
     four parameters and equations.
     """
 
-    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        from typing import Unpack
-
-        from lerax_like._keywords import CartPoleDynamicsKeywords
-
-        def __init__(self, **keywords: Unpack[CartPoleDynamicsKeywords]) -> None: ...
-    # (end of the constructor written by python -m lerax_like._constructor_source)
-
     velocity_indices: ClassVar[tuple[int, ...]] = (1, 3)
     has_cart: ClassVar[bool] = True
 
-    gravity: Scalar = parameter(9.8, POSITIVE)
-    cart_mass: Scalar = parameter(1.0, POSITIVE)
-    pole_mass: Scalar = parameter(0.1, POSITIVE)
-    half_length: Scalar = parameter(0.5, POSITIVE)
+    gravity: Scalar = eqx.field(default=9.8, converter=POSITIVE)
+    cart_mass: Scalar = eqx.field(default=1.0, converter=POSITIVE)
+    pole_mass: Scalar = eqx.field(default=0.1, converter=POSITIVE)
+    half_length: Scalar = eqx.field(default=0.5, converter=POSITIVE)
 
     @property
     def total_mass(self) -> Scalar:

@@ -21,19 +21,19 @@ the kinetic energy is `T = 1/2 q'^T M q'` with `M_thth[i, j] = A_ij cos(theta_i 
 masses and lengths are differentiable leaves.
 """
 
-from typing import TYPE_CHECKING, ClassVar, final
+from typing import ClassVar, final
 
+import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
-from .._fields import POSITIVE, parameter
+from .._fields import POSITIVE
 from .._types import Array, Float, Input, Scalar, ScalarLike, State
 from ._base import AbstractChainDynamics
 
 
-def _link_parameter(default: tuple[float, ...]):
-    """A per-link parameter: one positive entry per link, as many as every other per-link one."""
-    return parameter(default, POSITIVE, shape=("n",))
+# A per-link parameter: one positive entry per link, as many as every other per-link one.
+PER_LINK = POSITIVE.shaped("n")
 
 
 def _moments(masses: Float[Array, " n"], lengths: Float[Array, " n"]):
@@ -111,20 +111,12 @@ class NLinkPendulumDynamics(AbstractChainDynamics):
     on `theta_i` is therefore `u_i - u_{i+1}`.
     """
 
-    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        from typing import Unpack
-
-        from lerax_like._keywords import NLinkPendulumDynamicsKeywords
-
-        def __init__(self, **keywords: Unpack[NLinkPendulumDynamicsKeywords]) -> None: ...
-    # (end of the constructor written by python -m lerax_like._constructor_source)
-
     velocity_indices: ClassVar[None] = None  # the layout depends on the number of links
     has_cart: ClassVar[bool] = False
 
-    masses: Float[Array, " n"] = _link_parameter((1.0, 1.0, 1.0))
-    lengths: Float[Array, " n"] = _link_parameter((1.0, 1.0, 1.0))
-    gravity: Scalar = parameter(9.81, POSITIVE)
+    masses: Float[Array, " n"] = eqx.field(default=(1.0, 1.0, 1.0), converter=PER_LINK)
+    lengths: Float[Array, " n"] = eqx.field(default=(1.0, 1.0, 1.0), converter=PER_LINK)
+    gravity: Scalar = eqx.field(default=9.81, converter=POSITIVE)
 
     @property
     def n_links(self) -> int:
@@ -169,21 +161,13 @@ class CartChainDynamics(AbstractChainDynamics):
     horizontal force on the cart. The joints are passive.
     """
 
-    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        from typing import Unpack
-
-        from lerax_like._keywords import CartChainDynamicsKeywords
-
-        def __init__(self, **keywords: Unpack[CartChainDynamicsKeywords]) -> None: ...
-    # (end of the constructor written by python -m lerax_like._constructor_source)
-
     velocity_indices: ClassVar[None] = None  # the layout depends on the number of links
     has_cart: ClassVar[bool] = True
 
-    cart_mass: Scalar = parameter(1.0, POSITIVE)
-    pole_masses: Float[Array, " n"] = _link_parameter((0.1, 0.1))
-    pole_lengths: Float[Array, " n"] = _link_parameter((1.0, 1.0))
-    gravity: Scalar = parameter(9.81, POSITIVE)
+    cart_mass: Scalar = eqx.field(default=1.0, converter=POSITIVE)
+    pole_masses: Float[Array, " n"] = eqx.field(default=(0.1, 0.1), converter=PER_LINK)
+    pole_lengths: Float[Array, " n"] = eqx.field(default=(1.0, 1.0), converter=PER_LINK)
+    gravity: Scalar = eqx.field(default=9.81, converter=POSITIVE)
 
     @property
     def n_links(self) -> int:

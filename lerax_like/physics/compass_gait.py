@@ -1,11 +1,12 @@
 """The compass-gait biped (Goswami, Thuilot and Espiau, 1996)."""
 
-from typing import TYPE_CHECKING, ClassVar, final
+from typing import ClassVar, final
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-from .._fields import POSITIVE, parameter
+from .._fields import POSITIVE
 from .._types import Array, Float, Input, Scalar, ScalarLike, State
 from .simplest_walker import SLOPE
 from .walker import AbstractWalkerDynamics, swing_gap
@@ -39,22 +40,14 @@ class CompassGaitDynamics(AbstractWalkerDynamics):
     whole walker about the new stance foot and of the new swing leg about the hip.
     """
 
-    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        from typing import Unpack
-
-        from lerax_like._keywords import CompassGaitDynamicsKeywords
-
-        def __init__(self, **keywords: Unpack[CompassGaitDynamicsKeywords]) -> None: ...
-    # (end of the constructor written by python -m lerax_like._constructor_source)
-
     velocity_indices: ClassVar[tuple[int, ...]] = (2, 3)
 
-    lower_length: Scalar = parameter(0.5, POSITIVE)
-    upper_length: Scalar = parameter(0.5, POSITIVE)
-    leg_mass: Scalar = parameter(5.0, POSITIVE)
-    hip_mass: Scalar = parameter(10.0, POSITIVE)
-    slope: Scalar = parameter(3 * jnp.pi / 180, SLOPE)
-    gravity: Scalar = parameter(9.81, POSITIVE)
+    lower_length: Scalar = eqx.field(default=0.5, converter=POSITIVE)
+    upper_length: Scalar = eqx.field(default=0.5, converter=POSITIVE)
+    leg_mass: Scalar = eqx.field(default=5.0, converter=POSITIVE)
+    hip_mass: Scalar = eqx.field(default=10.0, converter=POSITIVE)
+    slope: Scalar = eqx.field(default=3 * jnp.pi / 180, converter=SLOPE)
+    gravity: Scalar = eqx.field(default=9.81, converter=POSITIVE)
 
     @property
     def leg_length(self) -> Scalar:

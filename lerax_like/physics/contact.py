@@ -27,17 +27,16 @@ physics of a trajectory that barely touches, not a numerical failure.
 """
 
 import abc
-from typing import TYPE_CHECKING, ClassVar, Protocol, final, runtime_checkable
+from typing import Protocol, final, runtime_checkable
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._fields import POSITIVE, AbstractParametrised, Range, option, parameter
+from .._fields import POSITIVE, AbstractParametrised, Range, option
 from .._types import Array, Bool, Float, Scalar, ScalarLike, State
 from ._base import AbstractChainDynamics, AbstractDynamics, require_attributes
-
 
 RESTITUTION = Range(
     "finite and in [0, 1] (allowed range [0, 1])",
@@ -184,21 +183,9 @@ class Walls(AbstractImpulseContact):
     force would pull. The located alternative to the penalty `EndStops`.
     """
 
-    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-
-        def __init__(
-            self,
-            *,
-            max_events: int = 16,
-            restitution: ScalarLike,
-            track_limit: ScalarLike = 2.4,
-            min_rebound_speed: ScalarLike = 0.001,
-        ) -> None: ...
-    # (end of the constructor written by python -m lerax_like._constructor_source)
-
-    restitution: Scalar = parameter(check=RESTITUTION)
-    track_limit: Scalar = parameter(2.4, POSITIVE)
-    min_rebound_speed: Scalar = parameter(1e-3, POSITIVE)
+    restitution: Scalar = eqx.field(converter=RESTITUTION, kw_only=True)
+    track_limit: Scalar = eqx.field(default=2.4, converter=POSITIVE)
+    min_rebound_speed: Scalar = eqx.field(default=1e-3, converter=POSITIVE)
 
     def gaps(self, dynamics: AbstractChainDynamics, y: State) -> Float[Array, " 2"]:
         x = dynamics.coordinates(y)[0][0]

@@ -11,16 +11,17 @@ without add-ons carries none of this and computes none of it.
         CartPoleDynamics(), (JointDamping(joint_damping=1.0), EndStops(end_stop_stiffness=1e5))
     )
 
-Scenes build this for themselves from flat keywords (`CartPole(joint_damping=1.0)`).
+A scene holds its add-ons in a field (`CartPole(forces=(JointDamping(joint_damping=1.0),))`), and
+`lerax_like.make` builds them from flat keywords (`make("CartPole", joint_damping=1.0)`).
 """
 
 import abc
-from typing import TYPE_CHECKING, ClassVar, final
+from typing import ClassVar, final
 
 import equinox as eqx
 import jax.numpy as jnp
 
-from .._fields import NONNEGATIVE, POSITIVE_OR_INF, AbstractParametrised, parameter
+from .._fields import NONNEGATIVE, POSITIVE_OR_INF, AbstractParametrised
 from .._types import Array, Float, Input, Scalar, ScalarLike, State
 from ._base import AbstractChainDynamics, AbstractConservativeDynamics, AbstractDynamics
 
@@ -74,19 +75,10 @@ class JointDamping(AbstractGeneralisedForce):
     `-b sum_i (theta_i_dot - theta_{i-1}_dot)**2`.
     """
 
-    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-
-        def __init__(
-            self,
-            *,
-            joint_damping: ScalarLike,
-        ) -> None: ...
-    # (end of the constructor written by python -m lerax_like._constructor_source)
-
     conservative: ClassVar[bool] = False
     requires_cart: ClassVar[bool] = False
 
-    joint_damping: Scalar = parameter(check=NONNEGATIVE)
+    joint_damping: Scalar = eqx.field(converter=NONNEGATIVE)
 
     def generalised_force(self, dynamics: AbstractChainDynamics, y: State) -> Float[Array, " q"]:
         _, rates = dynamics.coordinates(y)
@@ -117,23 +109,12 @@ class EndStops(AbstractGeneralisedForce):
     is conserved when `c = 0`. `track_limit` may be `inf` (no stops).
     """
 
-    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-
-        def __init__(
-            self,
-            *,
-            end_stop_stiffness: ScalarLike = 0.0,
-            end_stop_damping: ScalarLike = 0.0,
-            track_limit: ScalarLike = 2.4,
-        ) -> None: ...
-    # (end of the constructor written by python -m lerax_like._constructor_source)
-
     conservative: ClassVar[bool] = False  # the damper dissipates unless end_stop_damping is 0
     requires_cart: ClassVar[bool] = True
 
-    end_stop_stiffness: Scalar = parameter(0.0, NONNEGATIVE)
-    end_stop_damping: Scalar = parameter(0.0, NONNEGATIVE)
-    track_limit: Scalar = parameter(2.4, POSITIVE_OR_INF)
+    end_stop_stiffness: Scalar = eqx.field(default=0.0, converter=NONNEGATIVE)
+    end_stop_damping: Scalar = eqx.field(default=0.0, converter=NONNEGATIVE)
+    track_limit: Scalar = eqx.field(default=2.4, converter=POSITIVE_OR_INF)
 
     def _penetrations(self, x: Scalar) -> tuple[Scalar, Scalar]:
         """How far the cart is past the left and the right end stop (>= 0)."""
@@ -171,11 +152,7 @@ class ForcedDynamics(AbstractConservativeDynamics):
     """
 
     dynamics: AbstractChainDynamics
-    forces: tuple[AbstractGeneralisedForce, ...]
-
-    def __init__(self, dynamics: AbstractChainDynamics, forces=()):
-        self.dynamics = dynamics
-        self.forces = tuple(forces)
+    forces: tuple[AbstractGeneralisedForce, ...] = eqx.field(default=(), converter=tuple)
 
     def __check_init__(self):
         if not isinstance(self.dynamics, AbstractChainDynamics):

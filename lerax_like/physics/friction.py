@@ -19,14 +19,14 @@ a scene built without friction holds and computes none of it.
 """
 
 import abc
-from typing import TYPE_CHECKING, Any, ClassVar, final
+from typing import Any, ClassVar, final
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._fields import NONNEGATIVE, AbstractParametrised, concrete, option, parameter
+from .._fields import NONNEGATIVE, AbstractParametrised, concrete, option
 from .._types import Array, Float, Scalar, State
 from ._base import AbstractDynamics, require_attributes
 from .contact import mass_matrix, with_coordinates
@@ -87,21 +87,9 @@ class CartFriction(AbstractCoulombFriction):
     coefficients. The dynamics need `gravity` and `energy` too.
     """
 
-    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        from lerax_like._types import ScalarLike
-
-        def __init__(
-            self,
-            *,
-            max_events: int = 16,
-            cart_static_friction: ScalarLike = 0.0005,
-            cart_kinetic_friction: ScalarLike = 0.0005,
-        ) -> None: ...
-    # (end of the constructor written by python -m lerax_like._constructor_source)
-
     coordinate: ClassVar[int] = 0
-    cart_static_friction: Scalar = parameter(0.0005, NONNEGATIVE)
-    cart_kinetic_friction: Scalar = parameter(0.0005, NONNEGATIVE)
+    cart_static_friction: Scalar = eqx.field(default=0.0005, converter=NONNEGATIVE)
+    cart_kinetic_friction: Scalar = eqx.field(default=0.0005, converter=NONNEGATIVE)
 
     @property
     def static_friction(self) -> Scalar:
@@ -134,21 +122,9 @@ class CartFriction(AbstractCoulombFriction):
 class PlaneFriction(AbstractCoulombFriction):
     """Coulomb friction of a block on an inclined plane (`SlidingBlockDynamics`): `N = m g cos(alpha)`."""
 
-    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        from lerax_like._types import ScalarLike
-
-        def __init__(
-            self,
-            *,
-            max_events: int = 16,
-            static_friction: ScalarLike = 0.5,
-            kinetic_friction: ScalarLike = 0.3,
-        ) -> None: ...
-    # (end of the constructor written by python -m lerax_like._constructor_source)
-
     coordinate: ClassVar[int] = 0
-    static_friction: Scalar = parameter(0.5, NONNEGATIVE)
-    kinetic_friction: Scalar = parameter(0.3, NONNEGATIVE)
+    static_friction: Scalar = eqx.field(default=0.5, converter=NONNEGATIVE)
+    kinetic_friction: Scalar = eqx.field(default=0.3, converter=NONNEGATIVE)
 
     # `dynamics: Any`: duck-typed, whatever has the fields `check` asks for.
     def normal_force(self, dynamics: Any, y: State, acceleration: Float[Array, " q"]) -> Scalar:

@@ -1,8 +1,9 @@
-from typing import TYPE_CHECKING, ClassVar, final
+from typing import ClassVar, final
 
+import equinox as eqx
 import jax.numpy as jnp
 
-from .._fields import POSITIVE, parameter
+from .._fields import POSITIVE
 from .._types import Input, Scalar, ScalarLike, State
 from ._base import AbstractConservativeDynamics
 
@@ -19,17 +20,9 @@ class MountainCarDynamics(AbstractConservativeDynamics):
     State `y = [position, velocity]`.
     """
 
-    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        from typing import Unpack
-
-        from lerax_like._keywords import MountainCarDynamicsKeywords
-
-        def __init__(self, **keywords: Unpack[MountainCarDynamicsKeywords]) -> None: ...
-    # (end of the constructor written by python -m lerax_like._constructor_source)
-
     velocity_indices: ClassVar[tuple[int, ...]] = (1,)
 
-    gravity: Scalar = parameter(0.0025, POSITIVE)
+    gravity: Scalar = eqx.field(default=0.0025, converter=POSITIVE)
 
 
     def vector_field(self, t: ScalarLike, y: State, u: Input) -> State:

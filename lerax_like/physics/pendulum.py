@@ -1,8 +1,9 @@
-from typing import TYPE_CHECKING, ClassVar, final
+from typing import ClassVar, final
 
+import equinox as eqx
 import jax.numpy as jnp
 
-from .._fields import POSITIVE, parameter
+from .._fields import POSITIVE
 from .._types import Input, Scalar, ScalarLike, State
 from ._base import AbstractConservativeDynamics
 
@@ -17,19 +18,11 @@ class PendulumDynamics(AbstractConservativeDynamics):
     State `y = [theta, theta_dot]`, `theta` measured from upright, counter-clockwise.
     """
 
-    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        from typing import Unpack
-
-        from lerax_like._keywords import PendulumDynamicsKeywords
-
-        def __init__(self, **keywords: Unpack[PendulumDynamicsKeywords]) -> None: ...
-    # (end of the constructor written by python -m lerax_like._constructor_source)
-
     velocity_indices: ClassVar[tuple[int, ...]] = (1,)
 
-    gravity: Scalar = parameter(10.0, POSITIVE)
-    mass: Scalar = parameter(1.0, POSITIVE)
-    length: Scalar = parameter(1.0, POSITIVE)
+    gravity: Scalar = eqx.field(default=10.0, converter=POSITIVE)
+    mass: Scalar = eqx.field(default=1.0, converter=POSITIVE)
+    length: Scalar = eqx.field(default=1.0, converter=POSITIVE)
 
 
     def vector_field(self, t: ScalarLike, y: State, u: Input) -> State:

@@ -1,10 +1,11 @@
 """A quadrotor in the vertical plane: a rigid body with two rotors at the ends of its arm."""
 
-from typing import TYPE_CHECKING, ClassVar, final
+from typing import ClassVar, final
 
+import equinox as eqx
 import jax.numpy as jnp
 
-from .._fields import POSITIVE, parameter
+from .._fields import POSITIVE
 from .._types import Input, Scalar, ScalarLike, State
 from ._base import AbstractConservativeDynamics
 
@@ -26,20 +27,12 @@ class PlanarQuadrotorDynamics(AbstractConservativeDynamics):
     Unpowered it falls freely and spins at a constant rate: `energy` is conserved.
     """
 
-    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        from typing import Unpack
-
-        from lerax_like._keywords import PlanarQuadrotorDynamicsKeywords
-
-        def __init__(self, **keywords: Unpack[PlanarQuadrotorDynamicsKeywords]) -> None: ...
-    # (end of the constructor written by python -m lerax_like._constructor_source)
-
     velocity_indices: ClassVar[tuple[int, ...]] = (3, 4, 5)
 
-    mass: Scalar = parameter(1.0, POSITIVE)
-    arm_length: Scalar = parameter(0.25, POSITIVE)
-    moment_of_inertia: Scalar = parameter(0.01, POSITIVE)
-    gravity: Scalar = parameter(9.81, POSITIVE)
+    mass: Scalar = eqx.field(default=1.0, converter=POSITIVE)
+    arm_length: Scalar = eqx.field(default=0.25, converter=POSITIVE)
+    moment_of_inertia: Scalar = eqx.field(default=0.01, converter=POSITIVE)
+    gravity: Scalar = eqx.field(default=9.81, converter=POSITIVE)
 
     def vector_field(self, t: ScalarLike, y: State, u: Input) -> State:
         del t

@@ -1,13 +1,13 @@
-from typing import TYPE_CHECKING, ClassVar, final
+from typing import ClassVar, final
 
+import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
-from .._fields import POSITIVE, Range, option, parameter
+from .._fields import POSITIVE, Range, option
 from .._types import Array, BoolScalar, Float, Input, Scalar, ScalarLike, State
 from .contact import AbstractContact
 from .walker import AbstractWalkerDynamics
-
 
 # Two neighbouring spokes must not both be downhill of the hub, or no stance exists.
 HALF_ANGLE = Range(
@@ -49,21 +49,13 @@ class RimlessWheelDynamics(AbstractWalkerDynamics):
     slower than its `min_rebound_speed` after an impact in that state.
     """
 
-    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        from typing import Unpack
-
-        from lerax_like._keywords import RimlessWheelDynamicsKeywords
-
-        def __init__(self, **keywords: Unpack[RimlessWheelDynamicsKeywords]) -> None: ...
-    # (end of the constructor written by python -m lerax_like._constructor_source)
-
     velocity_indices: ClassVar[tuple[int, ...]] = (1,)
 
-    leg_length: Scalar = parameter(1.0, POSITIVE)
-    spoke_half_angle: Scalar = parameter(jnp.pi / 8, HALF_ANGLE)
-    slope: Scalar = parameter(0.08, SLOPE)
-    gravity: Scalar = parameter(9.81, POSITIVE)
-    mass: Scalar = parameter(1.0, POSITIVE)
+    leg_length: Scalar = eqx.field(default=1.0, converter=POSITIVE)
+    spoke_half_angle: Scalar = eqx.field(default=jnp.pi / 8, converter=HALF_ANGLE)
+    slope: Scalar = eqx.field(default=0.08, converter=SLOPE)
+    gravity: Scalar = eqx.field(default=9.81, converter=POSITIVE)
+    mass: Scalar = eqx.field(default=1.0, converter=POSITIVE)
 
     def vector_field(self, t: ScalarLike, y: State, u: Input) -> State:
         del t
@@ -155,17 +147,7 @@ class SpokeContact(AbstractContact):
     and sooner. `max_events` bounds the strikes of one env step (a failed step beyond).
     """
 
-    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-
-        def __init__(
-            self,
-            *,
-            max_events: int = 32,
-            min_rebound_speed: ScalarLike = 0.001,
-        ) -> None: ...
-    # (end of the constructor written by python -m lerax_like._constructor_source)
-
-    min_rebound_speed: Scalar = parameter(1e-3, POSITIVE)
+    min_rebound_speed: Scalar = eqx.field(default=1e-3, converter=POSITIVE)
     max_events: int = option(32, None)
 
     def gaps(self, dynamics: RimlessWheelDynamics, y: State) -> Float[Array, " 2"]:

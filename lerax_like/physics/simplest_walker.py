@@ -1,11 +1,12 @@
 """The simplest walking model (Garcia, Chatterjee, Ruina and Coleman, 1998)."""
 
-from typing import TYPE_CHECKING, ClassVar, final
+from typing import ClassVar, final
 
+import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
-from .._fields import Range, parameter
+from .._fields import Range
 from .._types import Input, Scalar, ScalarLike, State
 from .walker import AbstractWalkerDynamics, swing_gap
 
@@ -41,17 +42,9 @@ class SimplestWalkerDynamics(AbstractWalkerDynamics):
     `phi_dot+ = cos(2 theta) (1 - cos(2 theta)) theta_dot-`.
     """
 
-    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        from typing import Unpack
-
-        from lerax_like._keywords import SimplestWalkerDynamicsKeywords
-
-        def __init__(self, **keywords: Unpack[SimplestWalkerDynamicsKeywords]) -> None: ...
-    # (end of the constructor written by python -m lerax_like._constructor_source)
-
     velocity_indices: ClassVar[tuple[int, ...]] = (2, 3)
 
-    slope: Scalar = parameter(0.009, SLOPE)
+    slope: Scalar = eqx.field(default=0.009, converter=SLOPE)
 
     def vector_field(self, t: ScalarLike, y: State, u: Input) -> State:
         del t

@@ -1,12 +1,12 @@
-from typing import TYPE_CHECKING, ClassVar, final
+from typing import ClassVar, final
 
+import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
-from .._fields import POSITIVE, Range, parameter
+from .._fields import POSITIVE, Range
 from .._types import Array, Float, Input, Scalar, ScalarLike, State
 from ._base import AbstractConservativeDynamics
-
 
 INCLINE = Range(
     "finite and in [0, pi/2) (allowed range [0, pi/2))",
@@ -24,19 +24,11 @@ class SlidingBlockDynamics(AbstractConservativeDynamics):
     `forced_vector_field`.
     """
 
-    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        from typing import Unpack
-
-        from lerax_like._keywords import SlidingBlockDynamicsKeywords
-
-        def __init__(self, **keywords: Unpack[SlidingBlockDynamicsKeywords]) -> None: ...
-    # (end of the constructor written by python -m lerax_like._constructor_source)
-
     velocity_indices: ClassVar[tuple[int, ...]] = (1,)
 
-    mass: Scalar = parameter(1.0, POSITIVE)
-    gravity: Scalar = parameter(9.81, POSITIVE)
-    incline: Scalar = parameter(0.0, INCLINE)
+    mass: Scalar = eqx.field(default=1.0, converter=POSITIVE)
+    gravity: Scalar = eqx.field(default=9.81, converter=POSITIVE)
+    incline: Scalar = eqx.field(default=0.0, converter=INCLINE)
 
     def coordinates(self, y: State) -> tuple[Float[Array, " 1"], Float[Array, " 1"]]:
         return y[:1], y[1:]

@@ -1,8 +1,9 @@
-from typing import TYPE_CHECKING, ClassVar, final
+from typing import ClassVar, final
 
+import equinox as eqx
 import jax.numpy as jnp
 
-from .._fields import NONNEGATIVE, parameter
+from .._fields import NONNEGATIVE
 from .._types import Input, Scalar, ScalarLike, State
 from ._base import AbstractDynamics
 
@@ -24,18 +25,10 @@ class VanDerPolDynamics(AbstractDynamics):
     order 1.
     """
 
-    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        from typing import Unpack
-
-        from lerax_like._keywords import VanDerPolDynamicsKeywords
-
-        def __init__(self, **keywords: Unpack[VanDerPolDynamicsKeywords]) -> None: ...
-    # (end of the constructor written by python -m lerax_like._constructor_source)
-
     velocity_indices: ClassVar[None] = None  # first order in this form
 
     # mu = 0 is the harmonic oscillator, a valid (if not very interesting) limit.
-    mu: Scalar = parameter(1.0, NONNEGATIVE)
+    mu: Scalar = eqx.field(default=1.0, converter=NONNEGATIVE)
 
 
     def vector_field(self, t: ScalarLike, y: State, u: Input) -> State:

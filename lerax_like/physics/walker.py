@@ -7,7 +7,7 @@ A walker's dynamics declares its `slope`, the gap `front_gap(y)` to its next hee
 """
 
 import abc
-from typing import TYPE_CHECKING, final
+from typing import final
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -69,15 +69,6 @@ class HeelStrike(AbstractContact):
     One surface, `front_gap`; its map is the walker's `heel_strike`. `max_events` bounds
     the heel strikes of one env step (a failed step beyond).
     """
-
-    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-
-        def __init__(
-            self,
-            *,
-            max_events: int = 8,
-        ) -> None: ...
-    # (end of the constructor written by python -m lerax_like._constructor_source)
 
     max_events: int = option(8, None)
 

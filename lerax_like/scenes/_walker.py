@@ -6,8 +6,8 @@ import equinox as eqx
 import jax.numpy as jnp
 
 from .._types import Array, BoolScalar, Key, Scalar
-from ..physics.walker import AbstractWalkerDynamics, HeelStrike
 from ..env import EnvState
+from ..physics.walker import AbstractWalkerDynamics, HeelStrike
 from ._unit_action import AbstractUnitActionEnv
 
 

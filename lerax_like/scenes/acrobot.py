@@ -1,14 +1,16 @@
 import math
-from typing import TYPE_CHECKING, ClassVar, final
+from typing import ClassVar, final
 
+import equinox as eqx
 import jax.numpy as jnp
 
-from .._fields import POSITIVE, POSITIVE_OR_INF, parameter
+from .._fields import POSITIVE, POSITIVE_OR_INF
 from .._types import Array, BoolScalar, Input, Key, Scalar, State
-from ..env import AbstractEnv, EnvState, dynamics, episode_limit, integrator, time_step
-from ..integrate import Integrator
+from ..env import AbstractEnv, EnvState, episode_limit
+from ..integrate import Integrator, make_integrator
 from ..physics import AcrobotDynamics
 from ..spaces import Box, Discrete
+from ._registry import register_scene
 
 
 def _wrap(x: Scalar, low: float, high: float) -> Scalar:
@@ -24,6 +26,7 @@ def _wrap(x: Scalar, low: float, high: float) -> Scalar:
     return jnp.where(x < low, x + below * period, x)
 
 
+@register_scene
 @final
 class Acrobot(AbstractEnv):
     """Swing the tip of a two-link arm, actuated at the elbow only, above a line (Acrobot-v1).
@@ -61,35 +64,14 @@ class Acrobot(AbstractEnv):
     (`torque_noise_max`, 0 by default there) is not modelled.
     """
 
-    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        from typing import Unpack
-
-        from lerax_like._keywords import AcrobotDynamicsKeywords, IntegratorKeywords
-        from lerax_like._types import ScalarLike
-
-        class _Keywords(AcrobotDynamicsKeywords, IntegratorKeywords, total=False): ...
-
-        def __init__(
-            self,
-            *,
-            dynamics: AcrobotDynamics = ...,
-            torque: ScalarLike = 1.0,
-            max_velocity_1: ScalarLike = 12.566370614359172,
-            max_velocity_2: ScalarLike = 28.274333882308138,
-            dt: ScalarLike = 0.2,
-            max_episode_steps: int | None = 500,
-            **keywords: Unpack[_Keywords],
-        ) -> None: ...
-    # (end of the constructor written by python -m lerax_like._constructor_source)
-
     stochastic: ClassVar[bool] = False  # nothing random but the start
 
-    dynamics: AcrobotDynamics = dynamics(AcrobotDynamics)
-    integrator: Integrator = integrator("rk4")
-    torque: Scalar = parameter(1.0, POSITIVE)
-    max_velocity_1: Scalar = parameter(4 * math.pi, POSITIVE_OR_INF)
-    max_velocity_2: Scalar = parameter(9 * math.pi, POSITIVE_OR_INF)
-    dt: Scalar = time_step(0.2)
+    dynamics: AcrobotDynamics = eqx.field(default_factory=AcrobotDynamics)
+    integrator: Integrator = eqx.field(default="rk4", converter=make_integrator)
+    torque: Scalar = eqx.field(default=1.0, converter=POSITIVE)
+    max_velocity_1: Scalar = eqx.field(default=4 * math.pi, converter=POSITIVE_OR_INF)
+    max_velocity_2: Scalar = eqx.field(default=9 * math.pi, converter=POSITIVE_OR_INF)
+    dt: Scalar = eqx.field(default=0.2, converter=POSITIVE)
     max_episode_steps: int | None = episode_limit(500)
 
     @property

@@ -1,16 +1,18 @@
-from typing import TYPE_CHECKING, ClassVar, final
+from typing import ClassVar, final
 
 import equinox as eqx
 import jax.numpy as jnp
 
-from .._fields import FINITE, NONNEGATIVE, POSITIVE, parameter
+from .._fields import FINITE, NONNEGATIVE, POSITIVE
 from .._types import Array, BoolScalar, Key, Scalar
-from ..env import EnvState, dynamics, episode_limit, integrator, time_step
-from ..integrate import Integrator
+from ..env import EnvState, episode_limit
+from ..integrate import Integrator, make_integrator
 from ..physics.ball import BallDynamics, FloorAndWall
+from ._registry import register_scene
 from ._unit_action import AbstractUnitActionEnv
 
 
+@register_scene
 @final
 class BouncingBall(AbstractUnitActionEnv):
     """Steer a bouncing ball with a bounded thrust to a target point and hold it there.
@@ -52,48 +54,22 @@ class BouncingBall(AbstractUnitActionEnv):
     or `solver` (default `"tsit5"`) with `stepsize_controller`, `max_episode_steps`.
     """
 
-    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        from typing import Unpack
-
-        from lerax_like._keywords import BallDynamicsKeywords, FloorAndWallKeywords, IntegratorKeywords
-        from lerax_like._types import ScalarLike
-
-        class _Keywords(BallDynamicsKeywords, IntegratorKeywords, FloorAndWallKeywords, total=False): ...
-
-        def __init__(
-            self,
-            *,
-            dynamics: BallDynamics = ...,
-            contacts: tuple = ...,
-            max_thrust: ScalarLike = 20.0,
-            target_x: ScalarLike = 0.5,
-            target_z: ScalarLike = 1.0,
-            left_limit: ScalarLike = 2.0,
-            ceiling: ScalarLike = 4.0,
-            max_distance: ScalarLike = 5.0,
-            action_cost: ScalarLike = 0.01,
-            dt: ScalarLike = 0.02,
-            max_episode_steps: int | None = 200,
-            **keywords: Unpack[_Keywords],
-        ) -> None: ...
-    # (end of the constructor written by python -m lerax_like._constructor_source)
-
     stochastic: ClassVar[bool] = False  # nothing random but the start
     action_size: ClassVar[int] = 2
     action_scale: ClassVar[str] = "max_thrust"
     addons: ClassVar[tuple[type, ...]] = (FloorAndWall,)
 
-    dynamics: BallDynamics = dynamics(BallDynamics)
-    integrator: Integrator = integrator("tsit5")
+    dynamics: BallDynamics = eqx.field(default_factory=BallDynamics)
+    integrator: Integrator = eqx.field(default="tsit5", converter=make_integrator)
     contacts: tuple = eqx.field(default_factory=lambda: (FloorAndWall(),))
-    max_thrust: Scalar = parameter(20.0, POSITIVE)
-    target_x: Scalar = parameter(0.5, FINITE)
-    target_z: Scalar = parameter(1.0, FINITE)
-    left_limit: Scalar = parameter(2.0, POSITIVE)
-    ceiling: Scalar = parameter(4.0, POSITIVE)
-    max_distance: Scalar = parameter(5.0, POSITIVE)
-    action_cost: Scalar = parameter(0.01, NONNEGATIVE)
-    dt: Scalar = time_step(0.02)
+    max_thrust: Scalar = eqx.field(default=20.0, converter=POSITIVE)
+    target_x: Scalar = eqx.field(default=0.5, converter=FINITE)
+    target_z: Scalar = eqx.field(default=1.0, converter=FINITE)
+    left_limit: Scalar = eqx.field(default=2.0, converter=POSITIVE)
+    ceiling: Scalar = eqx.field(default=4.0, converter=POSITIVE)
+    max_distance: Scalar = eqx.field(default=5.0, converter=POSITIVE)
+    action_cost: Scalar = eqx.field(default=0.01, converter=NONNEGATIVE)
+    dt: Scalar = eqx.field(default=0.02, converter=POSITIVE)
     max_episode_steps: int | None = episode_limit(200)
 
     @property

@@ -1,19 +1,20 @@
 import math
-from typing import TYPE_CHECKING, ClassVar, Literal, final
+from typing import ClassVar, Literal, final
 
+import equinox as eqx
 import jax.numpy as jnp
 
-from .._fields import NONNEGATIVE, POSITIVE, POSITIVE_OR_INF, option, parameter
+from .._fields import NONNEGATIVE, POSITIVE, POSITIVE_OR_INF, option
 from .._types import Array, BoolScalar, Input, Key, Scalar
-from ..env import AbstractEnv, EnvState, dynamics, episode_limit, integrator, time_step
-from ..integrate import Integrator
+from ..env import AbstractEnv, EnvState, episode_limit
+from ..integrate import Integrator, make_integrator
 from ..physics import CartPoleDynamics
 from ..physics.contact import Walls
 from ..physics.forces import EndStops, JointDamping
 from ..physics.friction import CartFriction
 from ..spaces import Box, Discrete
+from ._registry import register_scene
 from ._unit_action import AbstractUnitActionEnv
-
 
 _TWELVE_DEGREES = 12 * 2 * math.pi / 360
 # The add-ons of a cart on a rail, whatever it carries (`DoubleCartPole` takes them too): the
@@ -31,15 +32,15 @@ class AbstractCartPole(AbstractEnv):
     stochastic: ClassVar[bool] = False  # nothing random but the start
     addons: ClassVar[tuple[type, ...]] = CART_ADDONS
 
-    dynamics: CartPoleDynamics = dynamics(CartPoleDynamics)
-    integrator: Integrator = integrator("euler")
+    dynamics: CartPoleDynamics = eqx.field(default_factory=CartPoleDynamics)
+    integrator: Integrator = eqx.field(default="euler", converter=make_integrator)
     forces: tuple = ()
     contacts: tuple = ()
     friction: tuple = ()
-    force_mag: Scalar = parameter(10.0, POSITIVE)
-    theta_threshold_radians: Scalar = parameter(_TWELVE_DEGREES, POSITIVE_OR_INF)
-    x_threshold: Scalar = parameter(2.4, POSITIVE_OR_INF)
-    dt: Scalar = time_step(0.02)
+    force_mag: Scalar = eqx.field(default=10.0, converter=POSITIVE)
+    theta_threshold_radians: Scalar = eqx.field(default=_TWELVE_DEGREES, converter=POSITIVE_OR_INF)
+    x_threshold: Scalar = eqx.field(default=2.4, converter=POSITIVE_OR_INF)
+    dt: Scalar = eqx.field(default=0.02, converter=POSITIVE)
     max_episode_steps: int | None = episode_limit(500)
 
     @property
@@ -62,6 +63,7 @@ class AbstractCartPole(AbstractEnv):
         )
 
 
+@register_scene
 @final
 class CartPole(AbstractCartPole):
     """Balance a pole on a cart by pushing the cart left or right (Gymnasium's CartPole-v1).
@@ -119,22 +121,6 @@ class CartPole(AbstractCartPole):
     Stiff settings need an adaptive solver (`"tsit5"`) or an implicit one (`"kvaerno5"`).
     """
 
-    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        from typing import Unpack
-
-        from lerax_like._keywords import AbstractCartPoleKeywords, CartFrictionKeywords, CartPoleDynamicsKeywords, EndStopsKeywords, IntegratorKeywords, JointDampingKeywords, WallsKeywords
-
-        class _Keywords(AbstractCartPoleKeywords, CartPoleDynamicsKeywords, IntegratorKeywords, JointDampingKeywords, EndStopsKeywords, WallsKeywords, CartFrictionKeywords, total=False): ...
-
-        def __init__(
-            self,
-            *,
-            sutton_barto_reward: bool = False,
-            **keywords: Unpack[_Keywords],
-        ) -> None: ...
-    # (end of the constructor written by python -m lerax_like._constructor_source)
-
-
     sutton_barto_reward: bool = option(False, (False, True))
 
     @property
@@ -157,6 +143,7 @@ class CartPole(AbstractCartPole):
         return jnp.ones((), dtype=self.dt.dtype)
 
 
+@register_scene
 @final
 class CartPoleContinuous(AbstractCartPole, AbstractUnitActionEnv):
     """CartPole with a continuous force: action `a` in `[-1, 1]` pushes with `a * force_mag` newtons.
@@ -186,30 +173,12 @@ class CartPoleContinuous(AbstractCartPole, AbstractUnitActionEnv):
     Those of `CartPole` (the add-ons included), plus `reward` and `action_cost` (>= 0).
     """
 
-    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        from typing import Unpack
-
-        from lerax_like._keywords import AbstractCartPoleKeywords, CartFrictionKeywords, CartPoleDynamicsKeywords, EndStopsKeywords, IntegratorKeywords, JointDampingKeywords, WallsKeywords
-        from lerax_like._types import ScalarLike
-
-        class _Keywords(AbstractCartPoleKeywords, CartPoleDynamicsKeywords, IntegratorKeywords, JointDampingKeywords, EndStopsKeywords, WallsKeywords, CartFrictionKeywords, total=False): ...
-
-        def __init__(
-            self,
-            *,
-            action_cost: ScalarLike = 0.001,
-            reward_kind: Literal['gymnasium', 'smooth'] = 'gymnasium',
-            reward: Literal['gymnasium', 'smooth'] | None = None,
-            **keywords: Unpack[_Keywords],
-        ) -> None: ...
-    # (end of the constructor written by python -m lerax_like._constructor_source)
-
     # `reward` is the keyword users know; the field is `reward_kind`, as `reward` is the method.
     aliases: ClassVar[tuple[tuple[str, str], ...]] = (("reward", "reward_kind"),)
     action_size: ClassVar[int] = 1
     action_scale: ClassVar[str] = "force_mag"
 
-    action_cost: Scalar = parameter(1e-3, NONNEGATIVE)
+    action_cost: Scalar = eqx.field(default=1e-3, converter=NONNEGATIVE)
     reward_kind: Literal["gymnasium", "smooth"] = option("gymnasium", ("gymnasium", "smooth"))
 
     def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:

@@ -1,18 +1,20 @@
-from typing import TYPE_CHECKING, final
+from typing import final
 
 import equinox as eqx
 import jax.numpy as jnp
 
-from .._fields import NONNEGATIVE, POSITIVE, parameter
+from .._fields import NONNEGATIVE, POSITIVE
 from .._types import Array, Scalar
-from ..env import dynamics, episode_limit, integrator, time_step
-from ..integrate import Integrator
+from ..env import episode_limit
+from ..integrate import Integrator, make_integrator
 from ..physics.compass_gait import CompassGaitDynamics
 from ..physics.walker import HeelStrike
+from ._registry import register_scene
 from ._walker import AbstractWalkerEnv
 from .simplest_walker import FALL_ANGLE
 
 
+@register_scene
 @final
 class CompassGait(AbstractWalkerEnv):
     """Walk the compass-gait biped down its slope at a target speed with a bounded hip torque.
@@ -58,39 +60,15 @@ class CompassGait(AbstractWalkerEnv):
     `stepsize_controller`, `max_episode_steps`.
     """
 
-    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        from typing import Unpack
-
-        from lerax_like._keywords import CompassGaitDynamicsKeywords, HeelStrikeKeywords, IntegratorKeywords
-        from lerax_like._types import ScalarLike
-
-        class _Keywords(CompassGaitDynamicsKeywords, IntegratorKeywords, HeelStrikeKeywords, total=False): ...
-
-        def __init__(
-            self,
-            *,
-            dynamics: CompassGaitDynamics = ...,
-            contacts: tuple = ...,
-            max_torque: ScalarLike = 1.0,
-            target_speed: ScalarLike = 1.0,
-            max_cost: ScalarLike = 4.0,
-            action_cost: ScalarLike = 0.01,
-            fall_angle: ScalarLike = 1.5707963267948966,
-            dt: ScalarLike = 0.02,
-            max_episode_steps: int | None = 1000,
-            **keywords: Unpack[_Keywords],
-        ) -> None: ...
-    # (end of the constructor written by python -m lerax_like._constructor_source)
-
-    dynamics: CompassGaitDynamics = dynamics(CompassGaitDynamics)
-    integrator: Integrator = integrator("tsit5")
+    dynamics: CompassGaitDynamics = eqx.field(default_factory=CompassGaitDynamics)
+    integrator: Integrator = eqx.field(default="tsit5", converter=make_integrator)
     contacts: tuple = eqx.field(default_factory=lambda: (HeelStrike(),))
-    max_torque: Scalar = parameter(1.0, POSITIVE)
-    target_speed: Scalar = parameter(1.0, NONNEGATIVE)
-    max_cost: Scalar = parameter(4.0, POSITIVE)
-    action_cost: Scalar = parameter(0.01, NONNEGATIVE)
-    fall_angle: Scalar = parameter(jnp.pi / 2, FALL_ANGLE)
-    dt: Scalar = time_step(0.02)
+    max_torque: Scalar = eqx.field(default=1.0, converter=POSITIVE)
+    target_speed: Scalar = eqx.field(default=1.0, converter=NONNEGATIVE)
+    max_cost: Scalar = eqx.field(default=4.0, converter=POSITIVE)
+    action_cost: Scalar = eqx.field(default=0.01, converter=NONNEGATIVE)
+    fall_angle: Scalar = eqx.field(default=jnp.pi / 2, converter=FALL_ANGLE)
+    dt: Scalar = eqx.field(default=0.02, converter=POSITIVE)
     max_episode_steps: int | None = episode_limit(1000)
 
     @property

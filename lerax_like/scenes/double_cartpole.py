@@ -1,22 +1,20 @@
 import math
-from typing import TYPE_CHECKING, ClassVar, Literal, final
+from typing import ClassVar, Literal, final
 
+import equinox as eqx
 import jax.numpy as jnp
 
-from .._fields import NONNEGATIVE, POSITIVE, POSITIVE_OR_INF, option, parameter
+from .._fields import NONNEGATIVE, POSITIVE, POSITIVE_OR_INF, option
 from .._types import Array, BoolScalar, Key, Scalar
-from ..env import EnvState, dynamics, episode_limit, integrator, time_step
-from ..integrate import Integrator
+from ..env import EnvState, episode_limit
+from ..integrate import Integrator, make_integrator
 from ..physics.chain import CartChainDynamics
+from ._registry import register_scene
 from ._unit_action import AbstractUnitActionEnv
 from .cartpole import CART_ADDONS
 
 
-def _track_default(values) -> float:
-    """2.4 for balance, inf for swing_up"""
-    return 2.4 if values["task"] == "balance" else math.inf
-
-
+@register_scene
 @final
 class DoubleCartPole(AbstractUnitActionEnv):
     """Balance, or swing up, two poles in a chain on a cart by pushing the cart.
@@ -70,49 +68,27 @@ class DoubleCartPole(AbstractUnitActionEnv):
     stick and slip located as events, as `CartPole`.
     """
 
-    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        from typing import Unpack
-
-        from lerax_like._keywords import CartChainDynamicsKeywords, CartFrictionKeywords, EndStopsKeywords, IntegratorKeywords, JointDampingKeywords, WallsKeywords
-        from lerax_like._types import ScalarLike
-
-        class _Keywords(CartChainDynamicsKeywords, IntegratorKeywords, JointDampingKeywords, EndStopsKeywords, WallsKeywords, CartFrictionKeywords, total=False): ...
-
-        def __init__(
-            self,
-            *,
-            task: Literal['balance', 'swing_up'] = 'balance',
-            dynamics: CartChainDynamics = ...,
-            forces: tuple = (),
-            contacts: tuple = (),
-            friction: tuple = (),
-            force_mag: ScalarLike = 20.0,
-            theta_threshold_radians: ScalarLike = 0.20943951023931953,
-            x_threshold: ScalarLike = ...,
-            action_cost: ScalarLike = 0.001,
-            dt: ScalarLike = 0.02,
-            max_episode_steps: int | None = 500,
-            **keywords: Unpack[_Keywords],
-        ) -> None: ...
-    # (end of the constructor written by python -m lerax_like._constructor_source)
-
     stochastic: ClassVar[bool] = False  # nothing random but the start
     addons: ClassVar[tuple[type, ...]] = CART_ADDONS
     action_size: ClassVar[int] = 1
     action_scale: ClassVar[str] = "force_mag"
 
     task: Literal["balance", "swing_up"] = option("balance", ("balance", "swing_up"))
-    dynamics: CartChainDynamics = dynamics(CartChainDynamics)
-    integrator: Integrator = integrator("rk4")
+    dynamics: CartChainDynamics = eqx.field(default_factory=CartChainDynamics)
+    integrator: Integrator = eqx.field(default="rk4", converter=make_integrator)
     forces: tuple = ()
     contacts: tuple = ()
     friction: tuple = ()
-    force_mag: Scalar = parameter(20.0, POSITIVE)
-    theta_threshold_radians: Scalar = parameter(12 * 2 * math.pi / 360, POSITIVE_OR_INF)
-    x_threshold: Scalar = parameter(check=POSITIVE_OR_INF, default_from=_track_default)
-    action_cost: Scalar = parameter(1e-3, NONNEGATIVE)
-    dt: Scalar = time_step(0.02)
+    force_mag: Scalar = eqx.field(default=20.0, converter=POSITIVE)
+    theta_threshold_radians: Scalar = eqx.field(default=12 * 2 * math.pi / 360, converter=POSITIVE_OR_INF)
+    x_threshold: Scalar = eqx.field(default=None, converter=POSITIVE_OR_INF)  # None: the task's
+    action_cost: Scalar = eqx.field(default=1e-3, converter=NONNEGATIVE)
+    dt: Scalar = eqx.field(default=0.02, converter=POSITIVE)
     max_episode_steps: int | None = episode_limit(500)
+
+    def __post_init__(self):
+        if self.x_threshold is None:  # 2.4 m for balance; unbounded for a swing-up
+            self.x_threshold = 2.4 if self.task == "balance" else math.inf
 
     @property
     def initial_bounds(self) -> tuple[Array, Array]:

@@ -1,15 +1,16 @@
-from typing import TYPE_CHECKING, ClassVar, final
+from typing import ClassVar, final
 
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
-from .._fields import FINITE, POSITIVE, POSITIVE_OR_INF, concrete, parameter
+from .._fields import FINITE, POSITIVE, POSITIVE_OR_INF, concrete
 from .._types import Array, BoolScalar, Input, Key, Scalar, State
-from ..env import AbstractEnv, EnvState, dynamics, episode_limit, integrator, time_step
-from ..integrate import Integrator
+from ..env import AbstractEnv, EnvState, episode_limit
+from ..integrate import Integrator, make_integrator
 from ..physics import MountainCarDynamics
 from ..spaces import Box, Discrete
+from ._registry import register_scene
 from ._unit_action import AbstractUnitActionEnv
 
 
@@ -25,13 +26,13 @@ class AbstractMountainCar(AbstractEnv):
     # but a type checker reads it as one without a default.
     goal_position: eqx.AbstractVar[Scalar]
 
-    dynamics: MountainCarDynamics = dynamics(MountainCarDynamics)
-    integrator: Integrator = integrator("semi_implicit_euler")
-    min_position: Scalar = parameter(-1.2, FINITE)
-    max_position: Scalar = parameter(0.6, FINITE)
-    max_speed: Scalar = parameter(0.07, POSITIVE_OR_INF)
-    goal_velocity: Scalar = parameter(0.0, FINITE)
-    dt: Scalar = time_step(1.0)
+    dynamics: MountainCarDynamics = eqx.field(default_factory=MountainCarDynamics)
+    integrator: Integrator = eqx.field(default="semi_implicit_euler", converter=make_integrator)
+    min_position: Scalar = eqx.field(default=-1.2, converter=FINITE)
+    max_position: Scalar = eqx.field(default=0.6, converter=FINITE)
+    max_speed: Scalar = eqx.field(default=0.07, converter=POSITIVE_OR_INF)
+    goal_velocity: Scalar = eqx.field(default=0.0, converter=FINITE)
+    dt: Scalar = eqx.field(default=1.0, converter=POSITIVE)
 
     @property
     def observation_space(self) -> Box:
@@ -68,6 +69,7 @@ class AbstractMountainCar(AbstractEnv):
 
 
 
+@register_scene
 @final
 class MountainCar(AbstractMountainCar):
     """Drive an underpowered car up a hill by rocking it (Gymnasium's MountainCar-v0).
@@ -103,27 +105,8 @@ class MountainCar(AbstractMountainCar):
     `stepsize_controller`, `max_episode_steps` (200).
     """
 
-    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        from typing import Unpack
-
-        from lerax_like._keywords import AbstractMountainCarKeywords, IntegratorKeywords, MountainCarDynamicsKeywords
-        from lerax_like._types import ScalarLike
-
-        class _Keywords(AbstractMountainCarKeywords, MountainCarDynamicsKeywords, IntegratorKeywords, total=False): ...
-
-        def __init__(
-            self,
-            *,
-            force: ScalarLike = 0.001,
-            goal_position: ScalarLike = 0.5,
-            max_episode_steps: int | None = 200,
-            **keywords: Unpack[_Keywords],
-        ) -> None: ...
-    # (end of the constructor written by python -m lerax_like._constructor_source)
-
-
-    force: Scalar = parameter(0.001, POSITIVE)
-    goal_position: Scalar = parameter(0.5, FINITE)
+    force: Scalar = eqx.field(default=0.001, converter=POSITIVE)
+    goal_position: Scalar = eqx.field(default=0.5, converter=FINITE)
     max_episode_steps: int | None = episode_limit(200)
 
     @property
@@ -142,6 +125,7 @@ class MountainCar(AbstractMountainCar):
         return -jnp.ones((), dtype=self.dt.dtype)
 
 
+@register_scene
 @final
 class MountainCarContinuous(AbstractMountainCar, AbstractUnitActionEnv):
     """Drive an underpowered car up a hill with a continuous throttle (MountainCarContinuous-v0).
@@ -173,29 +157,11 @@ class MountainCarContinuous(AbstractMountainCar, AbstractUnitActionEnv):
     `stepsize_controller`, `max_episode_steps` (999).
     """
 
-    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        from typing import Unpack
-
-        from lerax_like._keywords import AbstractMountainCarKeywords, IntegratorKeywords, MountainCarDynamicsKeywords
-        from lerax_like._types import ScalarLike
-
-        class _Keywords(AbstractMountainCarKeywords, MountainCarDynamicsKeywords, IntegratorKeywords, total=False): ...
-
-        def __init__(
-            self,
-            *,
-            power: ScalarLike = 0.0015,
-            goal_position: ScalarLike = 0.45,
-            max_episode_steps: int | None = 999,
-            **keywords: Unpack[_Keywords],
-        ) -> None: ...
-    # (end of the constructor written by python -m lerax_like._constructor_source)
-
     action_size: ClassVar[int] = 1
     action_scale: ClassVar[str] = "power"
 
-    power: Scalar = parameter(0.0015, POSITIVE)
-    goal_position: Scalar = parameter(0.45, FINITE)
+    power: Scalar = eqx.field(default=0.0015, converter=POSITIVE)
+    goal_position: Scalar = eqx.field(default=0.45, converter=FINITE)
     max_episode_steps: int | None = episode_limit(999)
 
     def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:

@@ -1,16 +1,19 @@
 import math
-from typing import TYPE_CHECKING, ClassVar, final
+from typing import ClassVar, final
 
+import equinox as eqx
 import jax.numpy as jnp
 
-from .._fields import NONNEGATIVE, parameter
+from .._fields import NONNEGATIVE, POSITIVE
 from .._types import Array, Key, Scalar
-from ..env import EnvState, dynamics, episode_limit, integrator, time_step
-from ..integrate import Integrator
+from ..env import EnvState, episode_limit
+from ..integrate import Integrator, make_integrator
 from ..physics.chain import NLinkPendulumDynamics
+from ._registry import register_scene
 from ._unit_action import AbstractUnitActionEnv
 
 
+@register_scene
 @final
 class NLinkPendulum(AbstractUnitActionEnv):
     """A chain of n uniform rods hanging from a fixed pivot, with a motor at every joint.
@@ -49,34 +52,14 @@ class NLinkPendulum(AbstractUnitActionEnv):
     the length of `masses`.
     """
 
-    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        from typing import Unpack
-
-        from lerax_like._keywords import IntegratorKeywords, NLinkPendulumDynamicsKeywords
-        from lerax_like._types import ScalarLike
-
-        class _Keywords(NLinkPendulumDynamicsKeywords, IntegratorKeywords, total=False): ...
-
-        def __init__(
-            self,
-            *,
-            dynamics: NLinkPendulumDynamics = ...,
-            max_torque: ScalarLike = 0.0,
-            action_cost: ScalarLike = 0.001,
-            dt: ScalarLike = 0.02,
-            max_episode_steps: int | None = 500,
-            **keywords: Unpack[_Keywords],
-        ) -> None: ...
-    # (end of the constructor written by python -m lerax_like._constructor_source)
-
     stochastic: ClassVar[bool] = False  # nothing random but the start
     action_scale: ClassVar[str] = "max_torque"
 
-    dynamics: NLinkPendulumDynamics = dynamics(NLinkPendulumDynamics)
-    integrator: Integrator = integrator("rk4")
-    max_torque: Scalar = parameter(0.0, NONNEGATIVE)
-    action_cost: Scalar = parameter(1e-3, NONNEGATIVE)
-    dt: Scalar = time_step(0.02)
+    dynamics: NLinkPendulumDynamics = eqx.field(default_factory=NLinkPendulumDynamics)
+    integrator: Integrator = eqx.field(default="rk4", converter=make_integrator)
+    max_torque: Scalar = eqx.field(default=0.0, converter=NONNEGATIVE)
+    action_cost: Scalar = eqx.field(default=1e-3, converter=NONNEGATIVE)
+    dt: Scalar = eqx.field(default=0.02, converter=POSITIVE)
     max_episode_steps: int | None = episode_limit(500)
 
     @property

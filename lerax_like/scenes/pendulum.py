@@ -1,19 +1,22 @@
-from typing import TYPE_CHECKING, ClassVar, final
+from typing import ClassVar, final
 
+import equinox as eqx
 import jax.numpy as jnp
 
-from .._fields import POSITIVE, POSITIVE_OR_INF, parameter
+from .._fields import POSITIVE, POSITIVE_OR_INF
 from .._types import Array, Input, Key, Scalar, State
-from ..env import AbstractEnv, EnvState, dynamics, episode_limit, integrator, time_step
-from ..integrate import Integrator
+from ..env import AbstractEnv, EnvState, episode_limit
+from ..integrate import Integrator, make_integrator
 from ..physics import PendulumDynamics
 from ..spaces import Box
+from ._registry import register_scene
 
 
 def _angle_normalize(theta: Scalar) -> Scalar:
     return ((theta + jnp.pi) % (2 * jnp.pi)) - jnp.pi
 
 
+@register_scene
 @final
 class Pendulum(AbstractEnv):
     """Swing a pendulum up and hold it upright with a bounded torque (Gymnasium's Pendulum-v1).
@@ -49,35 +52,14 @@ class Pendulum(AbstractEnv):
     `stepsize_controller`, `max_episode_steps`.
     """
 
-    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        from typing import Unpack
-
-        from lerax_like._keywords import IntegratorKeywords, PendulumDynamicsKeywords
-        from lerax_like._types import ScalarLike
-
-        class _Keywords(PendulumDynamicsKeywords, IntegratorKeywords, total=False): ...
-
-        def __init__(
-            self,
-            *,
-            dynamics: PendulumDynamics = ...,
-            max_speed: ScalarLike = 8.0,
-            max_torque: ScalarLike = 2.0,
-            dt: ScalarLike = 0.05,
-            max_episode_steps: int | None = 200,
-            g: ScalarLike | None = None,
-            **keywords: Unpack[_Keywords],
-        ) -> None: ...
-    # (end of the constructor written by python -m lerax_like._constructor_source)
-
     stochastic: ClassVar[bool] = False  # nothing random but the start
     aliases: ClassVar[tuple[tuple[str, str], ...]] = (("g", "gravity"),)
 
-    dynamics: PendulumDynamics = dynamics(PendulumDynamics)
-    integrator: Integrator = integrator("semi_implicit_euler")
-    max_speed: Scalar = parameter(8.0, POSITIVE_OR_INF)
-    max_torque: Scalar = parameter(2.0, POSITIVE)
-    dt: Scalar = time_step(0.05)
+    dynamics: PendulumDynamics = eqx.field(default_factory=PendulumDynamics)
+    integrator: Integrator = eqx.field(default="semi_implicit_euler", converter=make_integrator)
+    max_speed: Scalar = eqx.field(default=8.0, converter=POSITIVE_OR_INF)
+    max_torque: Scalar = eqx.field(default=2.0, converter=POSITIVE)
+    dt: Scalar = eqx.field(default=0.05, converter=POSITIVE)
     max_episode_steps: int | None = episode_limit(200)
 
     @property

@@ -1,16 +1,19 @@
 import math
-from typing import TYPE_CHECKING, ClassVar, final
+from typing import ClassVar, final
 
+import equinox as eqx
 import jax.numpy as jnp
 
-from .._fields import NONNEGATIVE, POSITIVE, parameter
+from .._fields import NONNEGATIVE, POSITIVE
 from .._types import Array, BoolScalar, Input, Key, Scalar
-from ..env import EnvState, dynamics, episode_limit, integrator, time_step
-from ..integrate import Integrator
+from ..env import EnvState, episode_limit
+from ..integrate import Integrator, make_integrator
 from ..physics.planar_quadrotor import PlanarQuadrotorDynamics
+from ._registry import register_scene
 from ._unit_action import AbstractUnitActionEnv
 
 
+@register_scene
 @final
 class PlanarQuadrotor(AbstractUnitActionEnv):
     """Hold a planar quadrotor hovering at the origin with its two rotors' thrusts.
@@ -49,36 +52,15 @@ class PlanarQuadrotor(AbstractUnitActionEnv):
     `solver` with `stepsize_controller`, `max_episode_steps`.
     """
 
-    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        from typing import Unpack
-
-        from lerax_like._keywords import IntegratorKeywords, PlanarQuadrotorDynamicsKeywords
-        from lerax_like._types import ScalarLike
-
-        class _Keywords(PlanarQuadrotorDynamicsKeywords, IntegratorKeywords, total=False): ...
-
-        def __init__(
-            self,
-            *,
-            dynamics: PlanarQuadrotorDynamics = ...,
-            position_limit: ScalarLike = 2.0,
-            theta_limit: ScalarLike = 1.5707963267948966,
-            action_cost: ScalarLike = 0.25,
-            dt: ScalarLike = 0.02,
-            max_episode_steps: int | None = 500,
-            **keywords: Unpack[_Keywords],
-        ) -> None: ...
-    # (end of the constructor written by python -m lerax_like._constructor_source)
-
     stochastic: ClassVar[bool] = False  # nothing random but the start
     action_size: ClassVar[int] = 2
 
-    dynamics: PlanarQuadrotorDynamics = dynamics(PlanarQuadrotorDynamics)
-    integrator: Integrator = integrator("rk4")
-    position_limit: Scalar = parameter(2.0, POSITIVE)
-    theta_limit: Scalar = parameter(math.pi / 2, POSITIVE)
-    action_cost: Scalar = parameter(0.25, NONNEGATIVE)
-    dt: Scalar = time_step(0.02)
+    dynamics: PlanarQuadrotorDynamics = eqx.field(default_factory=PlanarQuadrotorDynamics)
+    integrator: Integrator = eqx.field(default="rk4", converter=make_integrator)
+    position_limit: Scalar = eqx.field(default=2.0, converter=POSITIVE)
+    theta_limit: Scalar = eqx.field(default=math.pi / 2, converter=POSITIVE)
+    action_cost: Scalar = eqx.field(default=0.25, converter=NONNEGATIVE)
+    dt: Scalar = eqx.field(default=0.02, converter=POSITIVE)
     max_episode_steps: int | None = episode_limit(500)
 
     @property

@@ -1,16 +1,18 @@
-from typing import TYPE_CHECKING, ClassVar, final
+from typing import ClassVar, final
 
 import equinox as eqx
 import jax.numpy as jnp
 
-from .._fields import NONNEGATIVE, POSITIVE, parameter
+from .._fields import NONNEGATIVE, POSITIVE
 from .._types import Array, Key, Scalar
-from ..env import EnvState, dynamics, episode_limit, integrator, time_step
-from ..integrate import Integrator
+from ..env import EnvState, episode_limit
+from ..integrate import Integrator, make_integrator
 from ..physics.rimless_wheel import RimlessWheelDynamics, SpokeContact
+from ._registry import register_scene
 from ._unit_action import AbstractUnitActionEnv
 
 
+@register_scene
 @final
 class RimlessWheel(AbstractUnitActionEnv):
     """Roll a rimless wheel down a slope at a target speed with a bounded ankle torque.
@@ -58,42 +60,19 @@ class RimlessWheel(AbstractUnitActionEnv):
     (default `"tsit5"`) with `stepsize_controller`, `max_episode_steps`.
     """
 
-    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        from typing import Unpack
-
-        from lerax_like._keywords import IntegratorKeywords, RimlessWheelDynamicsKeywords, SpokeContactKeywords
-        from lerax_like._types import ScalarLike
-
-        class _Keywords(RimlessWheelDynamicsKeywords, IntegratorKeywords, SpokeContactKeywords, total=False): ...
-
-        def __init__(
-            self,
-            *,
-            dynamics: RimlessWheelDynamics = ...,
-            contacts: tuple = ...,
-            max_torque: ScalarLike = 1.0,
-            target_speed: ScalarLike = 1.5,
-            max_cost: ScalarLike = 25.0,
-            action_cost: ScalarLike = 0.01,
-            dt: ScalarLike = 0.05,
-            max_episode_steps: int | None = 400,
-            **keywords: Unpack[_Keywords],
-        ) -> None: ...
-    # (end of the constructor written by python -m lerax_like._constructor_source)
-
     stochastic: ClassVar[bool] = False  # nothing random but the start
     action_size: ClassVar[int] = 1
     action_scale: ClassVar[str] = "max_torque"
     addons: ClassVar[tuple[type, ...]] = (SpokeContact,)
 
-    dynamics: RimlessWheelDynamics = dynamics(RimlessWheelDynamics)
-    integrator: Integrator = integrator("tsit5")
+    dynamics: RimlessWheelDynamics = eqx.field(default_factory=RimlessWheelDynamics)
+    integrator: Integrator = eqx.field(default="tsit5", converter=make_integrator)
     contacts: tuple = eqx.field(default_factory=lambda: (SpokeContact(),))
-    max_torque: Scalar = parameter(1.0, POSITIVE)
-    target_speed: Scalar = parameter(1.5, POSITIVE)
-    max_cost: Scalar = parameter(25.0, POSITIVE)
-    action_cost: Scalar = parameter(0.01, NONNEGATIVE)
-    dt: Scalar = time_step(0.05)
+    max_torque: Scalar = eqx.field(default=1.0, converter=POSITIVE)
+    target_speed: Scalar = eqx.field(default=1.5, converter=POSITIVE)
+    max_cost: Scalar = eqx.field(default=25.0, converter=POSITIVE)
+    action_cost: Scalar = eqx.field(default=0.01, converter=NONNEGATIVE)
+    dt: Scalar = eqx.field(default=0.05, converter=POSITIVE)
     max_episode_steps: int | None = episode_limit(400)
 
     @property

@@ -1,19 +1,21 @@
-from typing import TYPE_CHECKING, final
+from typing import final
 
 import equinox as eqx
 import jax.numpy as jnp
 
-from .._fields import NONNEGATIVE, POSITIVE, Range, parameter
+from .._fields import NONNEGATIVE, POSITIVE, Range
 from .._types import Array, Scalar
-from ..env import dynamics, episode_limit, integrator, time_step
-from ..integrate import Integrator
+from ..env import episode_limit
+from ..integrate import Integrator, make_integrator
 from ..physics.simplest_walker import SimplestWalkerDynamics
 from ..physics.walker import HeelStrike
+from ._registry import register_scene
 from ._walker import AbstractWalkerEnv
 
 FALL_ANGLE = Range("in (0, pi/2] (allowed range (0, pi/2], radians)", lambda a: bool((a > 0) & (a <= jnp.pi / 2)))
 
 
+@register_scene
 @final
 class SimplestWalker(AbstractWalkerEnv):
     """Walk the simplest walker down its slope at a target speed with a bounded ankle torque.
@@ -59,39 +61,15 @@ class SimplestWalker(AbstractWalkerEnv):
     `max_episode_steps`.
     """
 
-    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        from typing import Unpack
-
-        from lerax_like._keywords import HeelStrikeKeywords, IntegratorKeywords, SimplestWalkerDynamicsKeywords
-        from lerax_like._types import ScalarLike
-
-        class _Keywords(SimplestWalkerDynamicsKeywords, IntegratorKeywords, HeelStrikeKeywords, total=False): ...
-
-        def __init__(
-            self,
-            *,
-            dynamics: SimplestWalkerDynamics = ...,
-            contacts: tuple = ...,
-            max_torque: ScalarLike = 0.01,
-            target_speed: ScalarLike = 0.2,
-            max_cost: ScalarLike = 1.0,
-            action_cost: ScalarLike = 0.01,
-            fall_angle: ScalarLike = 1.5707963267948966,
-            dt: ScalarLike = 0.1,
-            max_episode_steps: int | None = 1000,
-            **keywords: Unpack[_Keywords],
-        ) -> None: ...
-    # (end of the constructor written by python -m lerax_like._constructor_source)
-
-    dynamics: SimplestWalkerDynamics = dynamics(SimplestWalkerDynamics)
-    integrator: Integrator = integrator("tsit5")
+    dynamics: SimplestWalkerDynamics = eqx.field(default_factory=SimplestWalkerDynamics)
+    integrator: Integrator = eqx.field(default="tsit5", converter=make_integrator)
     contacts: tuple = eqx.field(default_factory=lambda: (HeelStrike(),))
-    max_torque: Scalar = parameter(0.01, POSITIVE)
-    target_speed: Scalar = parameter(0.2, NONNEGATIVE)
-    max_cost: Scalar = parameter(1.0, POSITIVE)
-    action_cost: Scalar = parameter(0.01, NONNEGATIVE)
-    fall_angle: Scalar = parameter(jnp.pi / 2, FALL_ANGLE)
-    dt: Scalar = time_step(0.1)
+    max_torque: Scalar = eqx.field(default=0.01, converter=POSITIVE)
+    target_speed: Scalar = eqx.field(default=0.2, converter=NONNEGATIVE)
+    max_cost: Scalar = eqx.field(default=1.0, converter=POSITIVE)
+    action_cost: Scalar = eqx.field(default=0.01, converter=NONNEGATIVE)
+    fall_angle: Scalar = eqx.field(default=jnp.pi / 2, converter=FALL_ANGLE)
+    dt: Scalar = eqx.field(default=0.1, converter=POSITIVE)
     max_episode_steps: int | None = episode_limit(1000)
 
     @property

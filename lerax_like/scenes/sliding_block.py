@@ -1,17 +1,19 @@
-from typing import TYPE_CHECKING, ClassVar, final
+from typing import ClassVar, final
 
 import equinox as eqx
 import jax.numpy as jnp
 
-from .._fields import FINITE, NONNEGATIVE, POSITIVE, parameter
+from .._fields import FINITE, NONNEGATIVE, POSITIVE
 from .._types import Array, Key, Scalar
-from ..env import EnvState, dynamics, episode_limit, integrator, time_step
-from ..integrate import Integrator
+from ..env import EnvState, episode_limit
+from ..integrate import Integrator, make_integrator
 from ..physics.friction import PlaneFriction
 from ..physics.sliding_block import SlidingBlockDynamics
+from ._registry import register_scene
 from ._unit_action import AbstractUnitActionEnv
 
 
+@register_scene
 @final
 class SlidingBlock(AbstractUnitActionEnv):
     """Push a block along an inclined plane with dry friction to a target position and hold it there.
@@ -52,40 +54,18 @@ class SlidingBlock(AbstractUnitActionEnv):
     `max_episode_steps`.
     """
 
-    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        from typing import Unpack
-
-        from lerax_like._keywords import IntegratorKeywords, PlaneFrictionKeywords, SlidingBlockDynamicsKeywords
-        from lerax_like._types import ScalarLike
-
-        class _Keywords(SlidingBlockDynamicsKeywords, IntegratorKeywords, PlaneFrictionKeywords, total=False): ...
-
-        def __init__(
-            self,
-            *,
-            dynamics: SlidingBlockDynamics = ...,
-            friction: tuple = ...,
-            force_mag: ScalarLike = 10.0,
-            target: ScalarLike = 1.0,
-            action_cost: ScalarLike = 0.001,
-            dt: ScalarLike = 0.05,
-            max_episode_steps: int | None = 200,
-            **keywords: Unpack[_Keywords],
-        ) -> None: ...
-    # (end of the constructor written by python -m lerax_like._constructor_source)
-
     stochastic: ClassVar[bool] = False
     addons: ClassVar[tuple[type, ...]] = (PlaneFriction,)
     action_size: ClassVar[int] = 1
     action_scale: ClassVar[str] = "force_mag"
 
-    dynamics: SlidingBlockDynamics = dynamics(SlidingBlockDynamics)
-    integrator: Integrator = integrator("tsit5")
+    dynamics: SlidingBlockDynamics = eqx.field(default_factory=SlidingBlockDynamics)
+    integrator: Integrator = eqx.field(default="tsit5", converter=make_integrator)
     friction: tuple = eqx.field(default_factory=lambda: (PlaneFriction(),))
-    force_mag: Scalar = parameter(10.0, POSITIVE)
-    target: Scalar = parameter(1.0, FINITE)
-    action_cost: Scalar = parameter(1e-3, NONNEGATIVE)
-    dt: Scalar = time_step(0.05)
+    force_mag: Scalar = eqx.field(default=10.0, converter=POSITIVE)
+    target: Scalar = eqx.field(default=1.0, converter=FINITE)
+    action_cost: Scalar = eqx.field(default=1e-3, converter=NONNEGATIVE)
+    dt: Scalar = eqx.field(default=0.05, converter=POSITIVE)
     max_episode_steps: int | None = episode_limit(200)
 
     @property

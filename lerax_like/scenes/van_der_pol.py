@@ -1,18 +1,20 @@
-from typing import TYPE_CHECKING, ClassVar, final
+from typing import ClassVar, final
 
+import equinox as eqx
 import jax.numpy as jnp
 
-from .._fields import NONNEGATIVE, POSITIVE, parameter
+from .._fields import NONNEGATIVE, POSITIVE
 from .._types import Array, Key, Scalar
-from ..env import EnvState, dynamics, episode_limit, integrator, time_step
-from ..integrate import Integrator
+from ..env import EnvState, episode_limit
+from ..integrate import Integrator, make_integrator
 from ..physics import VanDerPolDynamics
+from ._registry import register_scene
 from ._unit_action import AbstractUnitActionEnv
-
 
 _ERROR_CAP = 100.0
 
 
+@register_scene
 @final
 class VanDerPol(AbstractUnitActionEnv):
     """Hold a forced Van der Pol oscillator at a target amplitude; stiff for large `mu`.
@@ -53,39 +55,18 @@ class VanDerPol(AbstractUnitActionEnv):
     about 100) with `stepsize_controller`, `max_episode_steps`.
     """
 
-    if TYPE_CHECKING:  # the constructor as a type checker sees it; written by python -m lerax_like._constructor_source
-        from typing import Unpack
-
-        from lerax_like._keywords import IntegratorKeywords, VanDerPolDynamicsKeywords
-        from lerax_like._types import ScalarLike
-
-        class _Keywords(VanDerPolDynamicsKeywords, IntegratorKeywords, total=False): ...
-
-        def __init__(
-            self,
-            *,
-            dynamics: VanDerPolDynamics = ...,
-            force_mag: ScalarLike = 1.0,
-            target_amplitude: ScalarLike = 1.0,
-            action_cost: ScalarLike = 0.01,
-            dt: ScalarLike = 0.05,
-            max_episode_steps: int | None = 200,
-            **keywords: Unpack[_Keywords],
-        ) -> None: ...
-    # (end of the constructor written by python -m lerax_like._constructor_source)
-
     stochastic: ClassVar[bool] = False  # nothing random but the start
     # Stiff from mu of about 100: the studies take their reference from SciPy's Radau.
     stiff: ClassVar[bool] = True
     action_size: ClassVar[int] = 1
     action_scale: ClassVar[str] = "force_mag"
 
-    dynamics: VanDerPolDynamics = dynamics(VanDerPolDynamics)
-    integrator: Integrator = integrator("tsit5")
-    force_mag: Scalar = parameter(1.0, POSITIVE)
-    target_amplitude: Scalar = parameter(1.0, POSITIVE)
-    action_cost: Scalar = parameter(1e-2, NONNEGATIVE)
-    dt: Scalar = time_step(0.05)
+    dynamics: VanDerPolDynamics = eqx.field(default_factory=VanDerPolDynamics)
+    integrator: Integrator = eqx.field(default="tsit5", converter=make_integrator)
+    force_mag: Scalar = eqx.field(default=1.0, converter=POSITIVE)
+    target_amplitude: Scalar = eqx.field(default=1.0, converter=POSITIVE)
+    action_cost: Scalar = eqx.field(default=1e-2, converter=NONNEGATIVE)
+    dt: Scalar = eqx.field(default=0.05, converter=POSITIVE)
     max_episode_steps: int | None = episode_limit(200)
 
     @property

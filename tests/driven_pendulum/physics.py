@@ -2,10 +2,11 @@
 
 from typing import ClassVar, final
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-from lerax_like import FINITE, NONNEGATIVE, POSITIVE, AbstractDynamics, parameter
+from lerax_like import FINITE, NONNEGATIVE, POSITIVE, AbstractDynamics
 
 
 @final
@@ -19,10 +20,10 @@ class DrivenPendulumDynamics(AbstractDynamics):
 
     velocity_indices: ClassVar[tuple[int, ...]] = (1,)
 
-    natural_frequency: jax.Array = parameter(1.0, POSITIVE)
-    damping: jax.Array = parameter(0.5, NONNEGATIVE)
-    drive_amplitude: jax.Array = parameter(1.15, FINITE)
-    drive_frequency: jax.Array = parameter(2.0 / 3.0, NONNEGATIVE)
+    natural_frequency: jax.Array = eqx.field(default=1.0, converter=POSITIVE)
+    damping: jax.Array = eqx.field(default=0.5, converter=NONNEGATIVE)
+    drive_amplitude: jax.Array = eqx.field(default=1.15, converter=FINITE)
+    drive_frequency: jax.Array = eqx.field(default=2.0 / 3.0, converter=NONNEGATIVE)
 
     def vector_field(self, t, y: jax.Array, u: jax.Array) -> jax.Array:
         theta, theta_dot = y

@@ -3,12 +3,13 @@
 import math
 from typing import ClassVar, final
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 
 import lerax_like as ll
-from lerax_like import NONNEGATIVE, POSITIVE, EnvState, parameter
-from lerax_like.env import dynamics, episode_limit, integrator, time_step
+from lerax_like import NONNEGATIVE, POSITIVE, EnvState
+from lerax_like.env import episode_limit
 
 from .physics import DrivenPendulumDynamics
 
@@ -51,11 +52,11 @@ class DrivenPendulum(ll.AbstractUnitActionEnv):
     action_size: ClassVar[int] = 1
     action_scale: ClassVar[str] = "torque_mag"
 
-    dynamics: DrivenPendulumDynamics = dynamics(DrivenPendulumDynamics)
-    integrator: ll.Integrator = integrator("rk4")
-    torque_mag: jax.Array = parameter(0.5, POSITIVE)
-    action_cost: jax.Array = parameter(1e-2, NONNEGATIVE)
-    dt: jax.Array = time_step(0.05)
+    dynamics: DrivenPendulumDynamics = eqx.field(default_factory=DrivenPendulumDynamics)
+    integrator: ll.Integrator = eqx.field(default="rk4", converter=ll.make_integrator)
+    torque_mag: jax.Array = eqx.field(default=0.5, converter=POSITIVE)
+    action_cost: jax.Array = eqx.field(default=1e-2, converter=NONNEGATIVE)
+    dt: jax.Array = eqx.field(default=0.05, converter=POSITIVE)
     max_episode_steps: int | None = episode_limit(300)
 
     @property

@@ -2,10 +2,11 @@
 
 from typing import ClassVar, final
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 
-from lerax_like import NONNEGATIVE, POSITIVE, AbstractConservativeDynamics, parameter
+from lerax_like import NONNEGATIVE, POSITIVE, AbstractConservativeDynamics
 
 
 @final
@@ -18,9 +19,9 @@ class SpringMassDynamics(AbstractConservativeDynamics):
 
     velocity_indices: ClassVar[tuple[int, ...]] = (1,)
 
-    mass: jax.Array = parameter(1.0, POSITIVE)
-    stiffness: jax.Array = parameter(4.0, POSITIVE)
-    damping: jax.Array = parameter(0.4, NONNEGATIVE)
+    mass: jax.Array = eqx.field(default=1.0, converter=POSITIVE)
+    stiffness: jax.Array = eqx.field(default=4.0, converter=POSITIVE)
+    damping: jax.Array = eqx.field(default=0.4, converter=NONNEGATIVE)
 
     def vector_field(self, t, y: jax.Array, u: jax.Array) -> jax.Array:
         del t

@@ -2,13 +2,14 @@
 
 from typing import ClassVar, final
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 import lerax_like as ll
-from lerax_like import NONNEGATIVE, POSITIVE, EnvState, parameter
-from lerax_like.env import dynamics, episode_limit, integrator, time_step
+from lerax_like import NONNEGATIVE, POSITIVE, EnvState
+from lerax_like.env import episode_limit
 
 from .physics import SpringMassDynamics
 
@@ -49,11 +50,11 @@ class SpringMass(ll.AbstractUnitActionEnv):
     stochastic: ClassVar[bool] = False  # nothing random but the start
     action_size: ClassVar[int] = 1
 
-    dynamics: SpringMassDynamics = dynamics(SpringMassDynamics)
-    integrator: ll.Integrator = integrator("tsit5")
-    force_mag: jax.Array = parameter(1.0, POSITIVE)
-    action_cost: jax.Array = parameter(1e-2, NONNEGATIVE)
-    dt: jax.Array = time_step(0.05)
+    dynamics: SpringMassDynamics = eqx.field(default_factory=SpringMassDynamics)
+    integrator: ll.Integrator = eqx.field(default="tsit5", converter=ll.make_integrator)
+    force_mag: jax.Array = eqx.field(default=1.0, converter=POSITIVE)
+    action_cost: jax.Array = eqx.field(default=1e-2, converter=NONNEGATIVE)
+    dt: jax.Array = eqx.field(default=0.05, converter=POSITIVE)
     max_episode_steps: int | None = episode_limit(200)
 
     @property

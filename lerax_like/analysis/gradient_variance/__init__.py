@@ -39,7 +39,6 @@ values. The objective is in `_objective`, the float32 digit loss and the crossov
 `lerax_like.gradients`, the figure is in `analysis.figures`, the table in `analysis.tables`.
 """
 
-from ..._module_attributes import moved_names
 from ..figures import plot_gradient_variance as plot_gradient_variance
 from ..tables import format_gradient_variance_table as format_gradient_variance_table
 from ._objective import (
@@ -74,11 +73,3 @@ from ._study import (
     summary as summary,
     write_gradient_variance as write_gradient_variance,
 )
-
-
-# The estimators and the Lyapunov exponent are gradient tools, in `lerax_like.gradients` now.
-__getattr__ = moved_names(__name__, {
-    "lerax_like.gradients": (
-        "ESTIMATORS", "Evaluators", "alpha_weight", "estimate_gradients", "finite_time_lyapunov", "per_sample_statistics",
-    ),
-})

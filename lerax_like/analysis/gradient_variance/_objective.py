@@ -18,7 +18,7 @@ import numpy as np
 from ..._types import Array, BoolScalar, Float
 from ...env import AbstractEnv, EnvState
 from ...spaces import Box
-from ..scenes import make_scene
+from ..scenes import make
 
 
 POLICIES: tuple[str, ...] = ("open_loop", "linear_feedback")
@@ -38,7 +38,7 @@ def build_env(scene: str, scene_kwargs: Mapping[str, Any], solver: str, dtype: s
     """
     kwargs = {key: value for key, value in scene_kwargs.items() if key != "solver"}
     with jax.enable_x64(True):
-        env = make_scene(scene, solver=solver, **kwargs)
+        env = make(scene, solver=solver, **kwargs)
     if not isinstance(env.action_space, Box):
         raise ValueError(
             f"{scene} has discrete actions; the gradient-variance study needs continuous ones "

@@ -27,7 +27,7 @@ from ..measurements import (
 )
 from ..recording import PLOT_HINT, environment_record, matplotlib_available, read_csv_rows, write_record
 from ..recording import write_csv as write_rows
-from ..scenes import SCENES, make_scene, reference_method
+from ..scenes import SCENES, make, reference_method
 from ..sweeps import SolverSweep, default_sweeps
 from ..verdict import cheapest_at, failures, order_disagreements
 from ._schedules import (
@@ -280,7 +280,7 @@ class StudyResult:
 def run_study(config: StudyConfig, *, progress: bool = True) -> StudyResult:
     """Run `config` (in float64) and return its rows; see `lerax_like.analysis.study`."""
     with jax.enable_x64(True):
-        env = make_scene(config.scene, **config.scene_kwargs)
+        env = make(config.scene, **config.scene_kwargs)
         sweeps = config.sweeps or default_sweeps()
         initial_key, schedule_key = jr.split(jr.key(config.seed))
         y0s = initial_states(env, initial_key, config.batch, config.initial_states)

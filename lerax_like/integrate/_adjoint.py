@@ -27,7 +27,7 @@ env's `Integrator`. Three are useful:
   forward trajectory (README, Gradients): prefer `"checkpoint"` on stiff dynamics.
 
 Pick one with `with_adjoint(env, "forward")`, or build the scene with an `Integrator`:
-`CartPoleContinuous(solver=make_integrator("tsit5", adjoint=diffrax.ForwardMode()))`.
+`CartPoleContinuous(integrator=make_integrator("tsit5", adjoint=diffrax.ForwardMode()))`.
 
 `jax.jacfwd` (or `jax.jvp`) of a rollout or step under `"checkpoint"` fails wherever the
 step runs diffrax's solve loop (an adaptive or implicit solver, `substeps > 1`, located
@@ -62,7 +62,7 @@ def sized_to_the_work(adjoint: diffrax.AbstractAdjoint, max_steps: int) -> diffr
     hold every step of a solve of up to 44 steps with no recomputation beyond one forward sweep
     (Stumm and Walther's online schedule, `equinox.internal.while_loop`); a longer solve is
     recomputed more, never wrong: the gradient is the same, to the last bit. Measured on
-    `CartPoleContinuous(solver="tsit5")`, 64 envs x 100 steps: 81 MiB of XLA temp memory with
+    `CartPoleContinuous(integrator="tsit5")`, 64 envs x 100 steps: 81 MiB of XLA temp memory with
     diffrax's count, 4 MiB with 4 checkpoints, at the same time (`benchmarks/gradient_cost.py`).
     """
     if type(adjoint) is diffrax.RecursiveCheckpointAdjoint and adjoint.checkpoints is None:
