@@ -31,9 +31,12 @@ Check = Callable[[np.ndarray], bool]
 
 
 def concrete(value) -> np.ndarray | None:
-    if isinstance(value, jax.core.Tracer):
+    """`value` as a NumPy array, None where it is traced or not a number (a check across fields
+    then leaves it to the check of each field, which names it)."""
+    if isinstance(value, jax.core.Tracer) or isinstance(value, (str, bytes)) or value is None:
         return None
-    return np.asarray(value)
+    array = np.asarray(value)
+    return array if np.issubdtype(array.dtype, np.number) or array.dtype == np.bool_ else None
 
 
 def as_parameter(value, name: str) -> jax.Array:

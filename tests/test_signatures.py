@@ -72,7 +72,7 @@ def test_a_positional_call_is_accepted_exactly_when_the_signature_binds_it(cls):
     required = {p.name: _a_value(cls, p.name) for p in signature.parameters.values() if p.default is p.empty}
     keyword_only = {name: value for name, value in required.items() if signature.parameters[name].kind is inspect.Parameter.KEYWORD_ONLY}
     # Every positional parameter given by position, in order: the signature binds it, so the call works.
-    values = [required.get(p.name, _default_of(cls, p.name)) for p in positional]
+    values = [required[p.name] if p.name in required else _default_of(cls, p.name) for p in positional]
     signature.bind(*values, **keyword_only)
     assert eqx.tree_equal(cls(*values, **keyword_only), cls(**{p.name: v for p, v in zip(positional, values)}, **keyword_only))
     # One more positional value than the signature has places for: refused by both.
