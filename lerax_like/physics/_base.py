@@ -1,4 +1,5 @@
 import abc
+from typing import TYPE_CHECKING, ClassVar
 
 import equinox as eqx
 
@@ -20,7 +21,10 @@ class AbstractDynamics(AbstractParametrised):
     or where the layout depends on the instance (a chain's number of links).
     """
 
-    velocity_indices: eqx.AbstractClassVar[tuple[int, ...] | None]
+    if TYPE_CHECKING:  # equinox's `AbstractClassVar` reads as a dataclass field to a type checker
+        velocity_indices: ClassVar[tuple[int, ...] | None]
+    else:
+        velocity_indices: eqx.AbstractClassVar[tuple[int, ...] | None]
 
     @abc.abstractmethod
     def vector_field(self, t: ScalarLike, y: State, u: Input) -> State:

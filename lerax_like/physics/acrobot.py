@@ -25,14 +25,14 @@ class AcrobotDynamics(AbstractConservativeDynamics):
 
     velocity_indices: ClassVar[tuple[int, ...]] = (2, 3)
 
-    gravity: Scalar = eqx.field(default=9.8, converter=POSITIVE)
-    link_length_1: Scalar = eqx.field(default=1.0, converter=POSITIVE)
-    link_mass_1: Scalar = eqx.field(default=1.0, converter=POSITIVE)
-    link_mass_2: Scalar = eqx.field(default=1.0, converter=POSITIVE)
-    link_com_position_1: Scalar = eqx.field(default=0.5, converter=POSITIVE)
-    link_com_position_2: Scalar = eqx.field(default=0.5, converter=POSITIVE)
-    link_moment_of_inertia_1: Scalar = eqx.field(default=1.0, converter=POSITIVE)
-    link_moment_of_inertia_2: Scalar = eqx.field(default=1.0, converter=POSITIVE)
+    gravity: Scalar = eqx.field(default=9.8, converter=POSITIVE)  # m/s^2
+    link_length_1: Scalar = eqx.field(default=1.0, converter=POSITIVE)  # m
+    link_mass_1: Scalar = eqx.field(default=1.0, converter=POSITIVE)  # kg
+    link_mass_2: Scalar = eqx.field(default=1.0, converter=POSITIVE)  # kg
+    link_com_position_1: Scalar = eqx.field(default=0.5, converter=POSITIVE)  # m from the shoulder
+    link_com_position_2: Scalar = eqx.field(default=0.5, converter=POSITIVE)  # m from the elbow
+    link_moment_of_inertia_1: Scalar = eqx.field(default=1.0, converter=POSITIVE)  # kg m^2
+    link_moment_of_inertia_2: Scalar = eqx.field(default=1.0, converter=POSITIVE)  # kg m^2
     equations: Literal["book", "nips"] = option("book", ("book", "nips"))
 
     @property

@@ -29,10 +29,10 @@ class CartPoleDynamics(AbstractChainDynamics):
     velocity_indices: ClassVar[tuple[int, ...]] = (1, 3)
     has_cart: ClassVar[bool] = True
 
-    gravity: Scalar = eqx.field(default=9.8, converter=POSITIVE)
-    cart_mass: Scalar = eqx.field(default=1.0, converter=POSITIVE)
-    pole_mass: Scalar = eqx.field(default=0.1, converter=POSITIVE)
-    half_length: Scalar = eqx.field(default=0.5, converter=POSITIVE)
+    gravity: Scalar = eqx.field(default=9.8, converter=POSITIVE)  # m/s^2
+    cart_mass: Scalar = eqx.field(default=1.0, converter=POSITIVE)  # kg
+    pole_mass: Scalar = eqx.field(default=0.1, converter=POSITIVE)  # kg
+    half_length: Scalar = eqx.field(default=0.5, converter=POSITIVE)  # m, pivot to the pole's centre
 
     @property
     def total_mass(self) -> Scalar:

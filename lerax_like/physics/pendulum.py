@@ -20,9 +20,9 @@ class PendulumDynamics(AbstractConservativeDynamics):
 
     velocity_indices: ClassVar[tuple[int, ...]] = (1,)
 
-    gravity: Scalar = eqx.field(default=10.0, converter=POSITIVE)
-    mass: Scalar = eqx.field(default=1.0, converter=POSITIVE)
-    length: Scalar = eqx.field(default=1.0, converter=POSITIVE)
+    gravity: Scalar = eqx.field(default=10.0, converter=POSITIVE)  # m/s^2
+    mass: Scalar = eqx.field(default=1.0, converter=POSITIVE)  # kg
+    length: Scalar = eqx.field(default=1.0, converter=POSITIVE)  # m
 
 
     def vector_field(self, t: ScalarLike, y: State, u: Input) -> State:

@@ -51,11 +51,11 @@ class RimlessWheelDynamics(AbstractWalkerDynamics):
 
     velocity_indices: ClassVar[tuple[int, ...]] = (1,)
 
-    leg_length: Scalar = eqx.field(default=1.0, converter=POSITIVE)
-    spoke_half_angle: Scalar = eqx.field(default=jnp.pi / 8, converter=HALF_ANGLE)
-    slope: Scalar = eqx.field(default=0.08, converter=SLOPE)
-    gravity: Scalar = eqx.field(default=9.81, converter=POSITIVE)
-    mass: Scalar = eqx.field(default=1.0, converter=POSITIVE)
+    leg_length: Scalar = eqx.field(default=1.0, converter=POSITIVE)  # m
+    spoke_half_angle: Scalar = eqx.field(default=jnp.pi / 8, converter=HALF_ANGLE)  # rad, half the angle between spokes
+    slope: Scalar = eqx.field(default=0.08, converter=SLOPE)  # rad
+    gravity: Scalar = eqx.field(default=9.81, converter=POSITIVE)  # m/s^2
+    mass: Scalar = eqx.field(default=1.0, converter=POSITIVE)  # kg, at the hub
 
     def vector_field(self, t: ScalarLike, y: State, u: Input) -> State:
         del t
@@ -147,7 +147,7 @@ class SpokeContact(AbstractContact):
     and sooner. `max_events` bounds the strikes of one env step (a failed step beyond).
     """
 
-    min_rebound_speed: Scalar = eqx.field(default=1e-3, converter=POSITIVE)
+    min_rebound_speed: Scalar = eqx.field(default=1e-3, converter=POSITIVE)  # rad/s
     max_events: int = option(32, None)
 
     def gaps(self, dynamics: RimlessWheelDynamics, y: State) -> Float[Array, " 2"]:

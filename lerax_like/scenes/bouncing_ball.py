@@ -62,14 +62,14 @@ class BouncingBall(AbstractUnitActionEnv):
     dynamics: BallDynamics = eqx.field(default_factory=BallDynamics)
     integrator: Integrator = eqx.field(default="tsit5", converter=make_integrator)
     contacts: tuple = eqx.field(default_factory=lambda: (FloorAndWall(),))
-    max_thrust: Scalar = eqx.field(default=20.0, converter=POSITIVE)
-    target_x: Scalar = eqx.field(default=0.5, converter=FINITE)
-    target_z: Scalar = eqx.field(default=1.0, converter=FINITE)
-    left_limit: Scalar = eqx.field(default=2.0, converter=POSITIVE)
-    ceiling: Scalar = eqx.field(default=4.0, converter=POSITIVE)
-    max_distance: Scalar = eqx.field(default=5.0, converter=POSITIVE)
+    max_thrust: Scalar = eqx.field(default=20.0, converter=POSITIVE)  # N, each jet
+    target_x: Scalar = eqx.field(default=0.5, converter=FINITE)  # m
+    target_z: Scalar = eqx.field(default=1.0, converter=FINITE)  # m
+    left_limit: Scalar = eqx.field(default=2.0, converter=POSITIVE)  # m
+    ceiling: Scalar = eqx.field(default=4.0, converter=POSITIVE)  # m
+    max_distance: Scalar = eqx.field(default=5.0, converter=POSITIVE)  # m
     action_cost: Scalar = eqx.field(default=0.01, converter=NONNEGATIVE)
-    dt: Scalar = eqx.field(default=0.02, converter=POSITIVE)
+    dt: Scalar = eqx.field(default=0.02, converter=POSITIVE)  # s
     max_episode_steps: int | None = episode_limit(200)
 
     @property

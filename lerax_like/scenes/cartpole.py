@@ -37,10 +37,10 @@ class AbstractCartPole(AbstractEnv):
     forces: tuple = ()
     contacts: tuple = ()
     friction: tuple = ()
-    force_mag: Scalar = eqx.field(default=10.0, converter=POSITIVE)
-    theta_threshold_radians: Scalar = eqx.field(default=_TWELVE_DEGREES, converter=POSITIVE_OR_INF)
-    x_threshold: Scalar = eqx.field(default=2.4, converter=POSITIVE_OR_INF)
-    dt: Scalar = eqx.field(default=0.02, converter=POSITIVE)
+    force_mag: Scalar = eqx.field(default=10.0, converter=POSITIVE)  # N
+    theta_threshold_radians: Scalar = eqx.field(default=_TWELVE_DEGREES, converter=POSITIVE_OR_INF)  # rad
+    x_threshold: Scalar = eqx.field(default=2.4, converter=POSITIVE_OR_INF)  # m
+    dt: Scalar = eqx.field(default=0.02, converter=POSITIVE)  # s
     max_episode_steps: int | None = episode_limit(500)
 
     @property

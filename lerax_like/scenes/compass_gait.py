@@ -63,12 +63,12 @@ class CompassGait(AbstractWalkerEnv):
     dynamics: CompassGaitDynamics = eqx.field(default_factory=CompassGaitDynamics)
     integrator: Integrator = eqx.field(default="tsit5", converter=make_integrator)
     contacts: tuple = eqx.field(default_factory=lambda: (HeelStrike(),))
-    max_torque: Scalar = eqx.field(default=1.0, converter=POSITIVE)
-    target_speed: Scalar = eqx.field(default=1.0, converter=NONNEGATIVE)
+    max_torque: Scalar = eqx.field(default=1.0, converter=POSITIVE)  # N m, at the hip
+    target_speed: Scalar = eqx.field(default=1.0, converter=NONNEGATIVE)  # m/s along the slope
     max_cost: Scalar = eqx.field(default=4.0, converter=POSITIVE)
     action_cost: Scalar = eqx.field(default=0.01, converter=NONNEGATIVE)
-    fall_angle: Scalar = eqx.field(default=jnp.pi / 2, converter=FALL_ANGLE)
-    dt: Scalar = eqx.field(default=0.02, converter=POSITIVE)
+    fall_angle: Scalar = eqx.field(default=jnp.pi / 2, converter=FALL_ANGLE)  # rad
+    dt: Scalar = eqx.field(default=0.02, converter=POSITIVE)  # s
     max_episode_steps: int | None = episode_limit(1000)
 
     @property

@@ -76,14 +76,14 @@ class DoubleCartPole(AbstractUnitActionEnv):
     task: Literal["balance", "swing_up"] = option("balance", ("balance", "swing_up"))
     dynamics: CartChainDynamics = eqx.field(default_factory=CartChainDynamics)
     integrator: Integrator = eqx.field(default="rk4", converter=make_integrator)
-    forces: tuple = ()
+    forces: tuple = ()  # the add-ons of a cart on a rail (`CART_ADDONS`), as `CartPole`'s
     contacts: tuple = ()
     friction: tuple = ()
-    force_mag: Scalar = eqx.field(default=20.0, converter=POSITIVE)
-    theta_threshold_radians: Scalar = eqx.field(default=12 * 2 * math.pi / 360, converter=POSITIVE_OR_INF)
-    x_threshold: Scalar = eqx.field(default=None, converter=POSITIVE_OR_INF)  # None: the task's
+    force_mag: Scalar = eqx.field(default=20.0, converter=POSITIVE)  # N
+    theta_threshold_radians: Scalar = eqx.field(default=12 * 2 * math.pi / 360, converter=POSITIVE_OR_INF)  # rad
+    x_threshold: Scalar = eqx.field(default=None, converter=POSITIVE_OR_INF)  # m; None: the task's
     action_cost: Scalar = eqx.field(default=1e-3, converter=NONNEGATIVE)
-    dt: Scalar = eqx.field(default=0.02, converter=POSITIVE)
+    dt: Scalar = eqx.field(default=0.02, converter=POSITIVE)  # s
     max_episode_steps: int | None = episode_limit(500)
 
     def __post_init__(self):

@@ -28,10 +28,10 @@ class AbstractMountainCar(AbstractEnv):
 
     dynamics: MountainCarDynamics = eqx.field(default_factory=MountainCarDynamics)
     integrator: Integrator = eqx.field(default="semi_implicit_euler", converter=make_integrator)
-    min_position: Scalar = eqx.field(default=-1.2, converter=FINITE)
+    min_position: Scalar = eqx.field(default=-1.2, converter=FINITE)  # Gymnasium's units throughout
     max_position: Scalar = eqx.field(default=0.6, converter=FINITE)
     max_speed: Scalar = eqx.field(default=0.07, converter=POSITIVE_OR_INF)
-    goal_velocity: Scalar = eqx.field(default=0.0, converter=FINITE)
+    goal_velocity: Scalar = eqx.field(default=0.0, converter=FINITE)  # at least, at the goal
     dt: Scalar = eqx.field(default=1.0, converter=POSITIVE)
 
     @property

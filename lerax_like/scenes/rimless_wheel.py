@@ -60,20 +60,20 @@ class RimlessWheel(AbstractUnitActionEnv):
     (default `"tsit5"`) with `stepsize_controller`, `max_episode_steps`.
     """
 
-    stochastic: ClassVar[bool] = False  # nothing random but the start
+    stochastic: ClassVar[bool] = False  # only the start is drawn at random
     action_size: ClassVar[int] = 1
     action_scale: ClassVar[str] = "max_torque"
     addons: ClassVar[tuple[type, ...]] = (SpokeContact,)
 
     dynamics: RimlessWheelDynamics = eqx.field(default_factory=RimlessWheelDynamics)
     integrator: Integrator = eqx.field(default="tsit5", converter=make_integrator)
-    contacts: tuple = eqx.field(default_factory=lambda: (SpokeContact(),))
-    max_torque: Scalar = eqx.field(default=1.0, converter=POSITIVE)
-    target_speed: Scalar = eqx.field(default=1.5, converter=POSITIVE)
+    contacts: tuple = eqx.field(default_factory=lambda: (SpokeContact(),))  # the spokes' heel strikes
+    max_torque: Scalar = eqx.field(default=1.0, converter=POSITIVE)  # N m
+    target_speed: Scalar = eqx.field(default=1.5, converter=POSITIVE)  # rad/s
     max_cost: Scalar = eqx.field(default=25.0, converter=POSITIVE)
     action_cost: Scalar = eqx.field(default=0.01, converter=NONNEGATIVE)
-    dt: Scalar = eqx.field(default=0.05, converter=POSITIVE)
-    max_episode_steps: int | None = episode_limit(400)
+    dt: Scalar = eqx.field(default=0.05, converter=POSITIVE)  # s
+    max_episode_steps: int | None = episode_limit(400)  # 20 s at dt = 0.05 s
 
     @property
     def initial_bounds(self) -> tuple[Array, Array]:

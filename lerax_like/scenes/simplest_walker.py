@@ -64,12 +64,12 @@ class SimplestWalker(AbstractWalkerEnv):
     dynamics: SimplestWalkerDynamics = eqx.field(default_factory=SimplestWalkerDynamics)
     integrator: Integrator = eqx.field(default="tsit5", converter=make_integrator)
     contacts: tuple = eqx.field(default_factory=lambda: (HeelStrike(),))
-    max_torque: Scalar = eqx.field(default=0.01, converter=POSITIVE)
-    target_speed: Scalar = eqx.field(default=0.2, converter=NONNEGATIVE)
+    max_torque: Scalar = eqx.field(default=0.01, converter=POSITIVE)  # in units of m g l
+    target_speed: Scalar = eqx.field(default=0.2, converter=NONNEGATIVE)  # in units of sqrt(g l)
     max_cost: Scalar = eqx.field(default=1.0, converter=POSITIVE)
     action_cost: Scalar = eqx.field(default=0.01, converter=NONNEGATIVE)
-    fall_angle: Scalar = eqx.field(default=jnp.pi / 2, converter=FALL_ANGLE)
-    dt: Scalar = eqx.field(default=0.1, converter=POSITIVE)
+    fall_angle: Scalar = eqx.field(default=jnp.pi / 2, converter=FALL_ANGLE)  # rad
+    dt: Scalar = eqx.field(default=0.1, converter=POSITIVE)  # in units of sqrt(l / g)
     max_episode_steps: int | None = episode_limit(1000)
 
     @property

@@ -62,10 +62,10 @@ class SlidingBlock(AbstractUnitActionEnv):
     dynamics: SlidingBlockDynamics = eqx.field(default_factory=SlidingBlockDynamics)
     integrator: Integrator = eqx.field(default="tsit5", converter=make_integrator)
     friction: tuple = eqx.field(default_factory=lambda: (PlaneFriction(),))
-    force_mag: Scalar = eqx.field(default=10.0, converter=POSITIVE)
-    target: Scalar = eqx.field(default=1.0, converter=FINITE)
+    force_mag: Scalar = eqx.field(default=10.0, converter=POSITIVE)  # N
+    target: Scalar = eqx.field(default=1.0, converter=FINITE)  # m along the plane
     action_cost: Scalar = eqx.field(default=1e-3, converter=NONNEGATIVE)
-    dt: Scalar = eqx.field(default=0.05, converter=POSITIVE)
+    dt: Scalar = eqx.field(default=0.05, converter=POSITIVE)  # s
     max_episode_steps: int | None = episode_limit(200)
 
     @property

@@ -64,14 +64,15 @@ class VanDerPol(AbstractUnitActionEnv):
     dynamics: VanDerPolDynamics = eqx.field(default_factory=VanDerPolDynamics)
     integrator: Integrator = eqx.field(default="tsit5", converter=make_integrator)
     force_mag: Scalar = eqx.field(default=1.0, converter=POSITIVE)
-    target_amplitude: Scalar = eqx.field(default=1.0, converter=POSITIVE)
+    target_amplitude: Scalar = eqx.field(default=1.0, converter=POSITIVE)  # in the phase plane
     action_cost: Scalar = eqx.field(default=1e-2, converter=NONNEGATIVE)
     dt: Scalar = eqx.field(default=0.05, converter=POSITIVE)
     max_episode_steps: int | None = episode_limit(200)
 
     @property
     def initial_bounds(self) -> tuple[Array, Array]:
-        return jnp.full(2, -0.5, self.dt.dtype), jnp.full(2, 0.5, self.dt.dtype)
+        corner = jnp.full(2, 0.5, self.dt.dtype)
+        return -corner, corner
 
     def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
         del state, key
