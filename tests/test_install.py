@@ -9,6 +9,7 @@ no CUDA libraries, and kept by the `sb3` extra installed after it.
 import importlib.metadata
 import importlib.util
 import json
+import os
 import pathlib
 import re
 import shlex
@@ -93,3 +94,27 @@ def _version(distribution: str) -> str | None:
 
 def test_version_is_the_packages_metadata():
     assert lerax_like.__version__ == tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["version"]
+
+
+def test_a_source_tree_imports_without_the_package_installed():
+    # A clone on PYTHONPATH, never installed: importlib.metadata knows no lerax_like. The
+    # installed metadata is hidden by making the lookup fail as it does for a clone.
+    script = (
+        "import importlib.metadata as m\n"
+        "real = m.version\n"
+        "def version(name):\n"
+        "    if name == 'lerax_like':\n"
+        "        raise m.PackageNotFoundError(name)\n"
+        "    return real(name)\n"
+        "m.version = version\n"
+        "import lerax_like\n"
+        "print(lerax_like.__file__, lerax_like.__version__)\n"
+    )
+    result = subprocess.run(
+        [sys.executable, "-c", script], cwd=ROOT, capture_output=True, text=True, timeout=300,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+    )
+    assert result.returncode == 0, result.stderr
+    path, version = result.stdout.split()
+    assert pathlib.Path(path).resolve().parent == ROOT / "lerax_like"
+    assert version == "0+unknown"
