@@ -48,6 +48,8 @@ class CompassGaitDynamics(AbstractWalkerDynamics):
     # (end of the constructor written by python -m lerax_like._constructor_source)
 
     velocity_indices: ClassVar[tuple[int, ...]] = (2, 3)
+    # The state's components by name, as the docstring writes them (`lerax-like gait` prints them).
+    state_names: ClassVar[tuple[str, ...]] = ("theta_s", "theta_w", "theta_s_dot", "theta_w_dot")
 
     lower_length: Scalar = parameter(0.5, POSITIVE)
     upper_length: Scalar = parameter(0.5, POSITIVE)

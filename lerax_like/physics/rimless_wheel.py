@@ -58,6 +58,8 @@ class RimlessWheelDynamics(AbstractWalkerDynamics):
     # (end of the constructor written by python -m lerax_like._constructor_source)
 
     velocity_indices: ClassVar[tuple[int, ...]] = (1,)
+    # The state's components by name, as the docstring writes them (`lerax-like gait` prints them).
+    state_names: ClassVar[tuple[str, ...]] = ("theta", "theta_dot")
 
     leg_length: Scalar = parameter(1.0, POSITIVE)
     spoke_half_angle: Scalar = parameter(jnp.pi / 8, HALF_ANGLE)

@@ -50,6 +50,8 @@ class SimplestWalkerDynamics(AbstractWalkerDynamics):
     # (end of the constructor written by python -m lerax_like._constructor_source)
 
     velocity_indices: ClassVar[tuple[int, ...]] = (2, 3)
+    # The state's components by name, as the docstring writes them (`lerax-like gait` prints them).
+    state_names: ClassVar[tuple[str, ...]] = ("theta", "phi", "theta_dot", "phi_dot")
 
     slope: Scalar = parameter(0.009, SLOPE)
 
