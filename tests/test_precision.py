@@ -85,3 +85,11 @@ def test_in_float64_no_preset_and_no_ordinary_tolerance_is_touched():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         env.step(state, 1, key=jax.random.key(1))
+
+
+def test_gradcheck_refuses_float32_and_says_why():
+    from lerax_like.gradients import gradcheck
+
+    with _float32():
+        with pytest.raises(RuntimeError, match="float32 finite differences carry rounding noise"):
+            gradcheck(lambda p: jnp.sum(p["x"] ** 2), {"x": jnp.ones(2)})

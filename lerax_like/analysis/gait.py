@@ -265,7 +265,7 @@ def rounded(values, digits: int) -> np.ndarray:
     if scale == 0 or not np.isfinite(scale):
         return values
     quantum = 10.0 ** (np.floor(np.log10(scale)) - digits + 1)
-    parts = (values.real, values.imag) if np.iscomplexobj(values) else (values,)
+    parts = (np.real(values), np.imag(values)) if np.iscomplexobj(values) else (values,)
     rounded_parts = [np.round(part / quantum) * quantum + 0.0 for part in parts]  # + 0.0: no -0
     return rounded_parts[0] + 1j * rounded_parts[1] if len(rounded_parts) == 2 else rounded_parts[0]
 

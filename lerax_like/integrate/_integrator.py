@@ -7,7 +7,7 @@ from typing import Any
 
 import diffrax
 import equinox as eqx
-import jax
+import jax.core  # `jax.core.Tracer`: imported by name, so that a type checker sees the module
 import jax.numpy as jnp
 
 from .._fields import check_count
