@@ -150,6 +150,14 @@ class Integrator(eqx.Module):
             preset_tolerances=self.preset_tolerances,
         )
 
+    def stepsize_controller_for(self, dtype) -> diffrax.AbstractStepSizeController:
+        """The step-size controller as a solve in `dtype` runs it: a `PIDController`'s tolerances
+        raised to `tolerance_floors(dtype)` (a preset's silently, a user's with a warning)."""
+        controller = self.stepsize_controller
+        if isinstance(controller, diffrax.PIDController):
+            controller = _within_floors(controller, dtype, quiet=self.preset_tolerances)
+        return controller
+
     @property
     def adaptive(self) -> bool:
         return isinstance(self.stepsize_controller, diffrax.AbstractAdaptiveStepSizeController)
@@ -282,9 +290,7 @@ class Integrator(eqx.Module):
     def _solve(self, term, y0, u, dt, dt0, *, solver=None, **options) -> diffrax.Solution:
         """`diffeqsolve` over `[0, dt]` with this integrator's solver, controller and budget."""
         solver = self.solver if solver is None else solver
-        controller = self.stepsize_controller
-        if isinstance(controller, diffrax.PIDController):
-            controller = _within_floors(controller, y0.dtype, quiet=self.preset_tolerances)
+        controller = self.stepsize_controller_for(y0.dtype)
         if type(controller) is diffrax.PIDController:
             controller = GuardedPIDController(**{f.name: getattr(controller, f.name) for f in dataclasses.fields(controller)})
         return diffrax.diffeqsolve(
