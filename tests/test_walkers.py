@@ -8,6 +8,7 @@ implicit-function derivatives of the gait. The references (SciPy `solve_ivp` wit
 SymPy's Lagrangian) are typed from the papers here, not imported from the package.
 """
 
+import dataclasses
 import re
 
 import jax.numpy as jnp
@@ -331,7 +332,8 @@ def test_fixed_point_slope_derivative_against_finite_differences(which, simplest
 
 
 def _fields(dynamics):
-    return {name: float(getattr(dynamics, name)) for name in type(dynamics).__dataclass_fields__ if name != "velocity_indices"}
+    # dataclasses.fields: the instance fields, without the class variables (velocity_indices, state_names).
+    return {field.name: float(getattr(dynamics, field.name)) for field in dataclasses.fields(dynamics)}
 
 
 # -- the compass gait: SymPy's Lagrangian, and SciPy ------------------------------------------
