@@ -82,8 +82,12 @@ from .scenes import (
 )
 from .spaces import Box as Box, Discrete as Discrete
 
-import importlib.metadata  # __version__ is pyproject.toml's, through the installed package's metadata
-__version__ = importlib.metadata.version("lerax_like")
+import importlib.metadata
+
+try:  # pyproject.toml's version, through the installed package's metadata
+    __version__ = importlib.metadata.version("lerax_like")
+except importlib.metadata.PackageNotFoundError:  # a source tree on PYTHONPATH, not installed
+    __version__ = "0+unknown"
 
 # The Gymnasium ids (`gymnasium.make("lerax_like/CartPole-v1")`), registered on import.
 from . import gym as gym

@@ -115,7 +115,7 @@ def segment_solver(
         term = ProjectedODETerm(vector_field, velocity_indices=velocity_indices)
     else:
         term = diffrax.ODETerm(vector_field)
-    controller = integrator.stepsize_controller
+    controller = integrator.stepsize_controller_for(dt.dtype)
     if type(controller) in (diffrax.PIDController, GuardedPIDController):
         settings = {name: getattr(controller, name) for name in diffrax.PIDController.__dataclass_fields__}
         controller = GrazingGuardController(**settings, guard=guard)

@@ -99,7 +99,7 @@ def test_the_command_studies_a_scene_from_the_working_directory(tmp_path):
     # user's module found in the working directory only.
     environment = {**os.environ, "PYTHONPATH": ROOT, "JAX_PLATFORMS": "cpu"}
     completed = subprocess.run(
-        [sys.executable, "-m", "lerax_like", "study", "mymod:MyScene", "--quick", "--no-progress", "--no-plot",
+        [sys.executable, "-m", "lerax_like", "study", "mymod:MyScene", "--quick", "--no-plot",
          "--solver", "rk4", "--out", "out"],
         cwd=tmp_path, env=environment, capture_output=True, text=True, timeout=900,
     )
@@ -110,6 +110,10 @@ def test_the_command_studies_a_scene_from_the_working_directory(tmp_path):
     # RK4 on a harmonic oscillator: fourth order, fitted from the study's own steps.
     orders = [float(match) for match in re.findall(r"^\s*recorded rk4\s+order ([0-9.]+)", completed.stdout, re.M)]
     assert len(orders) == 1 and abs(orders[0] - 4) < 0.3, completed.stdout
+    # Read on its own: the table's legend; and no progress bar into a pipe (no --no-progress above).
+    assert "error: max-norm of the state error at the final time" in completed.stdout
+    assert "seconds: the fastest of the repeats" in completed.stdout and "reference's floor" in completed.stdout
+    assert "study MyScene" not in completed.stderr and "it/s" not in completed.stderr, completed.stderr[-2000:]
 
 
 @pytest.mark.parametrize("command", ["study", "gradients", "gradient-variance"])

@@ -275,3 +275,28 @@ def test_named_backsolve_adjoint_raises_on_stiff_van_der_pol():
     gradient = eqx.filter_jit(jax.grad(_van_der_pol_final_state, has_aux=True))
     with pytest.raises(Exception, match="maximum number of solver steps"):
         jax.block_until_ready(gradient(env.dynamics.mu, jnp.array([2.0, 0.0]), env))
+
+
+@pytest.mark.parametrize("solver", ["euler", "rk4"])
+def test_forward_mode_passes_one_constant_step_as_docs_gradients_says(solver):
+    # docs/gradients.md: jax.jacfwd works through an env of one constant step per env step,
+    # without with_adjoint; checked against central differences (float64).
+    env = ll.make("CartPoleContinuous", solver=solver)
+    state, _, _ = env.reset(key=jr.key(0))
+    actions = jnp.full((10, 1), 0.3)
+
+    def end_state(pole_mass):
+        ys, _ = ll.rollout(eqx.tree_at(lambda e: e.dynamics.pole_mass, env, pole_mass), state, actions)
+        return ys[-1]
+
+    mass, h = env.dynamics.pole_mass, 1e-6
+    central = (end_state(mass + h) - end_state(mass - h)) / (2 * h)
+    np.testing.assert_allclose(jax.jacfwd(end_state)(mass), central, rtol=1e-6, atol=1e-9)
+
+
+def test_forward_mode_through_an_adaptive_solver_names_the_forward_adjoint():
+    env = ll.make("CartPoleContinuous", solver="tsit5")
+    state, _, _ = env.reset(key=jr.key(0))
+    end_state = lambda m: ll.rollout(eqx.tree_at(lambda e: e.dynamics.pole_mass, env, m), state, jnp.zeros((2, 1)))[0][-1]
+    with pytest.raises(TypeError, match=r"with_adjoint\(env, 'forward'\)"):
+        jax.jacfwd(end_state)(env.dynamics.pole_mass)

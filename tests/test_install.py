@@ -9,6 +9,7 @@ no CUDA libraries, and kept by the `sb3` extra installed after it.
 import importlib.metadata
 import importlib.util
 import json
+import os
 import pathlib
 import re
 import shlex
@@ -93,3 +94,63 @@ def _version(distribution: str) -> str | None:
 
 def test_version_is_the_packages_metadata():
     assert lerax_like.__version__ == tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["version"]
+
+
+def test_a_source_tree_imports_without_the_package_installed():
+    # A clone on PYTHONPATH, never installed: importlib.metadata knows no lerax_like. The
+    # installed metadata is hidden by making the lookup fail as it does for a clone.
+    script = (
+        "import importlib.metadata as m\n"
+        "real = m.version\n"
+        "def version(name):\n"
+        "    if name == 'lerax_like':\n"
+        "        raise m.PackageNotFoundError(name)\n"
+        "    return real(name)\n"
+        "m.version = version\n"
+        "import lerax_like\n"
+        "print(lerax_like.__file__, lerax_like.__version__)\n"
+    )
+    result = subprocess.run(
+        [sys.executable, "-c", script], cwd=ROOT, capture_output=True, text=True, timeout=300,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+    )
+    assert result.returncode == 0, result.stderr
+    path, version = result.stdout.split()
+    assert pathlib.Path(path).resolve().parent == ROOT / "lerax_like"
+    assert version == "0+unknown"
+
+
+def _editable_install() -> bool:
+    """Whether the environment's lerax_like is an editable install (pip's direct_url.json says so)."""
+    try:
+        direct_url = importlib.metadata.distribution("lerax_like").read_text("direct_url.json")
+    except importlib.metadata.PackageNotFoundError:
+        return False
+    return bool(direct_url) and bool(json.loads(direct_url).get("dir_info", {}).get("editable"))
+
+
+def test_the_readme_installs_in_a_mode_that_type_checkers_follow():
+    # setuptools' default editable install is an import hook, which static tools cannot follow;
+    # strict mode is a tree of links on a path in a .pth file, which they read.
+    (line,) = [line for line in README_LINES if line.startswith("python -m pip install -e")]
+    assert "--config-settings editable_mode=strict" in line
+    assert line in (ROOT / ".ci" / "run").read_text()
+
+
+@pytest.mark.skipif(not _editable_install(), reason="lerax_like is not installed in editable mode here (a source "
+                    "tree or a plain install): there is no editable install to resolve")
+def test_basedpyright_resolves_the_editable_install_from_outside_the_clone(tmp_path):
+    pytest.importorskip("basedpyright")
+    assert ROOT not in tmp_path.parents
+    (tmp_path / "script.py").write_text(
+        "import lerax_like\n\nenv = lerax_like.CartPole(integrator='tsit5')\nreveal_type(env)\n"
+    )
+    completed = subprocess.run(
+        [sys.executable, "-m", "basedpyright", "--pythonpath", sys.executable, "--outputjson", "script.py"],
+        cwd=tmp_path, capture_output=True, text=True, timeout=600,
+    )
+    report = json.loads(completed.stdout)
+    problems = [d for d in report["generalDiagnostics"] if d["severity"] in ("error", "warning")]
+    assert not problems, problems
+    revealed = [d["message"] for d in report["generalDiagnostics"] if d["severity"] == "information"]
+    assert revealed == ['Type of "env" is "CartPole"'], revealed

@@ -2,6 +2,7 @@
 setting that is the same in every run, energy drift only where energy is conserved, order
 guides inside the data."""
 
+import contextlib
 import math
 
 import jax
@@ -126,3 +127,31 @@ def test_no_order_guide_without_a_span():
     assert order_guide([(0.01, 1e-5)], 4.0) is None
     assert order_guide([(0.01, 1e-5), (0.02, 1e-5)], 4.0) is None
     assert order_guide([(0.01, 1e-5), (0.02, 1e-4)], math.nan) is None
+
+
+def test_the_table_says_what_its_columns_are_and_flags_errors_inside_the_reference_floor():
+    # The issue's case: Dopri8 at 8.8e-14 against a reference floor of 5.3e-13.
+    inside = _row("dopri8 (PID)", 1e-10, 8.8e-14, 200.0, 4e-3, reference_floor=5.3e-13, batch=8, horizon=100)
+    outside = _row("tsit5 (PID)", 1e-6, 2.0e-7, 100.0, 2e-3, reference_floor=5.3e-13, batch=8, horizon=100)
+    table = format_table([inside, outside])
+    lines = table.splitlines()
+    dopri8, = (line for line in lines if line.startswith("recorded  dopri8"))
+    tsit5, = (line for line in lines if line.startswith("recorded  tsit5"))
+    assert "8.80e-14*" in dopri8.split() and "2.00e-07" in tsit5.split() and "*" not in tsit5
+    legend = "\n".join(lines[3:])
+    assert "schedule recorded:" in legend and "random action" in legend
+    assert "final time" in legend and "batch of 8" in legend and "100 env steps" in legend
+    assert "5.3e-13" in legend and "reference's floor" in legend
+
+
+def test_no_progress_bar_is_drawn_into_a_file(tmp_path):
+    from lerax_like.analysis.study._study import _progress_bar
+
+    pytest.importorskip("tqdm")
+    with open(tmp_path / "log", "w") as log:
+        with contextlib.redirect_stderr(log):
+            bar = _progress_bar(3, True, "study")
+            for _ in range(3):
+                bar.update(1)
+            bar.close()
+    assert (tmp_path / "log").read_text() == ""

@@ -8,6 +8,7 @@ implicit-function derivatives of the gait. The references (SciPy `solve_ivp` wit
 SymPy's Lagrangian) are typed from the papers here, not imported from the package.
 """
 
+import dataclasses
 import re
 
 import jax.numpy as jnp
@@ -331,7 +332,8 @@ def test_fixed_point_slope_derivative_against_finite_differences(which, simplest
 
 
 def _fields(dynamics):
-    return {name: float(getattr(dynamics, name)) for name in type(dynamics).__dataclass_fields__ if name != "velocity_indices"}
+    # dataclasses.fields: the instance fields, without the class variables (velocity_indices, state_names).
+    return {field.name: float(getattr(dynamics, field.name)) for field in dataclasses.fields(dynamics)}
 
 
 # -- the compass gait: SymPy's Lagrangian, and SciPy ------------------------------------------
@@ -482,3 +484,23 @@ def test_compass_gait_stability_is_blind_to_the_scales_of_time_mass_and_length(c
     assert abs(m * radius["leg_mass"] + m_h * radius["hip_mass"]) < 1e-9 * scale
     assert abs(a * radius["lower_length"] + b * radius["upper_length"] + g * radius["gravity"]) < 1e-9 * scale
     assert abs(radius["lower_length"]) > 1e-3 * scale  # not blind to the mass's place on the leg
+
+
+@pytest.mark.slow
+def test_gait_command_names_the_components_and_prints_round_off_as_zero(capsys):
+    """The rimless wheel's |lambda| = cos(2 alpha)**2 depends on the spoke angle alone: its derivative in
+    every other parameter is zero, and d|lambda|/d alpha = -2 sin(4 alpha) (closed form, not the code's)."""
+    from lerax_like.cli import main
+
+    assert main(["gait", "RimlessWheel"]) == 0
+    output = capsys.readouterr().out
+    wheel = RimlessWheelDynamics()
+    line = lambda label: output.split(label)[1].splitlines()[0].strip()
+    assert re.fullmatch(r"theta -?\d\.\d+, theta_dot -?\d\.\d+", line("fixed point (just after heel strike):"))
+    assert line("largest modulus") == "0.5" == f"{float(np.cos(2 * wheel.spoke_half_angle) ** 2):.8g}"
+    assert line("eigenvalues of the return map's Jacobian:") == "0.5, 0"
+    for parameter in ("leg_length", "slope", "gravity", "mass"):
+        assert line(f"d |largest eigenvalue| / d {parameter}:") == "0", parameter
+    expected = -2 * np.sin(4 * float(wheel.spoke_half_angle))
+    assert line("d |largest eigenvalue| / d spoke_half_angle:") == f"{expected:.8g}"
+    assert line("d fixed point / d mass:") == "theta 0, theta_dot 0"

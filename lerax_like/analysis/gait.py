@@ -247,34 +247,77 @@ def walker_scenes() -> list[str]:
     return sorted(name for name, scene in SCENES.items() if is_walker(scene))
 
 
+# Digits that the gait's numbers hold. The fixed point and its period: Newton to a residual of
+# 1e-12 or less through a Dopri8 solve at 1e-13, 12 digits. The return map's Jacobian, its
+# eigenvalues and the fixed point's derivatives, first derivatives through that solve: 10.
+# d|lambda|/dp, a second derivative through it: 8 (the rimless wheel's |lambda| = cos(2 alpha)^2
+# does not depend on the slope; its computed derivative was -1.8e-9). A number below the last
+# digit of the largest of its kind (a vector's components, the eigenvalues) is printed as 0.
+FIXED_POINT_DIGITS = 12
+DIGITS = 10
+SECOND_ORDER_DIGITS = 8
+
+
+def rounded(values, digits: int) -> np.ndarray:
+    """`values` rounded to `digits` significant digits of the largest magnitude among them (round-off to 0)."""
+    values = np.asarray(values)
+    scale = float(np.max(np.abs(values), initial=0.0))
+    if scale == 0 or not np.isfinite(scale):
+        return values
+    quantum = 10.0 ** (np.floor(np.log10(scale)) - digits + 1)
+    parts = (np.real(values), np.imag(values)) if np.iscomplexobj(values) else (values,)
+    rounded_parts = [np.round(part / quantum) * quantum + 0.0 for part in parts]  # + 0.0: no -0
+    return rounded_parts[0] + 1j * rounded_parts[1] if len(rounded_parts) == 2 else rounded_parts[0]
+
+
+def _number(value, digits: int) -> str:
+    if np.iscomplexobj(value) and np.imag(value) != 0:
+        return f"{np.real(value):.{digits}g}{np.imag(value):+.{digits}g}j"
+    return f"{float(np.real(value)) + 0.0:.{digits}g}"
+
+
+def _named(names, values, digits: int) -> str:
+    return ", ".join(f"{name} {_number(value, digits)}" for name, value in zip(names, rounded(values, digits)))
+
+
 def scene_gait(name: str, keywords: dict[str, float] | None = None, *, sensitivity: bool = True) -> str:
     """The period-one gait of the walker scene `name` (built with `keywords`), as text.
 
     Newton starts at the middle of the scene's starting box (each walker's is about its
     passive gait). With `sensitivity`, also the derivatives of the fixed point and of the
-    largest eigenvalue's modulus w.r.t. every physical parameter.
+    largest eigenvalue's modulus w.r.t. every physical parameter. Each state component is
+    named (the dynamics' `state_names`); numbers are printed at the digits they hold
+    (`FIXED_POINT_DIGITS`, `DIGITS`, `SECOND_ORDER_DIGITS`), round-off as 0.
     """
     from .scenes import make
 
-    jax.config.update("jax_enable_x64", True)  # a gait's digits need float64
-    scene = make(name, **(keywords or {}))
-    low, high = scene.initial_bounds
-    dynamics = jax.tree.map(lambda leaf: jnp.asarray(leaf, jnp.float64) if eqx.is_inexact_array(leaf) else leaf, scene.dynamics)
-    gait = find_gait(dynamics, (jnp.asarray(low, jnp.float64) + jnp.asarray(high, jnp.float64)) / 2)
-    with np.printoptions(precision=12, suppress=False, linewidth=120):
-        lines = [
-            f"{name}: period-one gait ({'converged' if gait.converged else 'NOT converged'}, residual {gait.residual:.1e})",
-            f"  fixed point (just after heel strike): {gait.fixed_point}",
-            f"  step period: {gait.period:.12g}",
-            f"  eigenvalues of the return map's Jacobian: {gait.eigenvalues}",
-            f"  {'stable' if gait.stable else 'unstable'}: largest modulus {np.max(np.abs(gait.eigenvalues)):.12g}",
-        ]
-        if sensitivity and gait.converged:
-            derivatives = gait_sensitivity(dynamics, gait)
-            lines.append("  derivatives (implicit function theorem):")
-            for parameter, value in derivatives.fixed_point.items():
-                lines.append(f"    d fixed point / d {parameter}: {value}")
-                lines.append(f"    d |largest eigenvalue| / d {parameter}: {derivatives.spectral_radius[parameter]:.10g}")
+    with jax.enable_x64(True):  # a gait's digits need float64
+        scene = make(name, **(keywords or {}))
+        low, high = scene.initial_bounds
+        dynamics = jax.tree.map(
+            lambda leaf: jnp.asarray(leaf, jnp.float64) if eqx.is_inexact_array(leaf) else leaf, scene.dynamics
+        )
+        gait = find_gait(dynamics, (jnp.asarray(low, jnp.float64) + jnp.asarray(high, jnp.float64)) / 2)
+        derivatives = gait_sensitivity(dynamics, gait) if sensitivity and gait.converged else None
+    names = getattr(dynamics, "state_names", None) or tuple(f"y[{i}]" for i in range(len(gait.fixed_point)))
+    eigenvalues = rounded(gait.eigenvalues, DIGITS)
+    lines = [
+        f"{name}: period-one gait ({'converged' if gait.converged else 'NOT converged'}, residual {gait.residual:.1e})",
+        f"  fixed point (just after heel strike): {_named(names, gait.fixed_point, FIXED_POINT_DIGITS)}",
+        f"  step period: {gait.period:.{FIXED_POINT_DIGITS}g}",
+        f"  eigenvalues of the return map's Jacobian: {', '.join(_number(v, DIGITS) for v in eigenvalues)}",
+        f"  {'stable' if gait.stable else 'unstable'}: largest modulus {_number(np.max(np.abs(eigenvalues)), DIGITS)}",
+    ]
+    if derivatives is not None:
+        # d|lambda|/dp across parameters of different units: rounded as elasticities p d|lambda|/dp.
+        values = {p: float(getattr(dynamics, p)) for p in derivatives.spectral_radius}
+        elasticities = rounded([values[p] * d for p, d in derivatives.spectral_radius.items()], SECOND_ORDER_DIGITS)
+        lines.append("  derivatives (implicit function theorem):")
+        for (parameter, value), elasticity in zip(derivatives.fixed_point.items(), elasticities):
+            raw = derivatives.spectral_radius[parameter]
+            radius = elasticity / values[parameter] if values[parameter] != 0 else raw
+            lines.append(f"    d fixed point / d {parameter}: {_named(names, value, DIGITS)}")
+            lines.append(f"    d |largest eigenvalue| / d {parameter}: {_number(radius, SECOND_ORDER_DIGITS)}")
     return "\n".join(lines)
 
 

@@ -23,7 +23,9 @@ def format_table(rows: Sequence[dict[str, Any]]) -> str:
     Settings whose errors and step counts coincide are one line (`group_settings`),
     named by their range; a time marked `~` is not resolved (`timing_unresolved`), as
     the figure marks it hollow. A failed setting shows `failed` for its errors and, in a
-    last column, why (`failure`).
+    last column, why (`failure`). An `error` or `max_error` at or below the reference's
+    floor is marked `*`: it measures the reference, not the solver. A legend under the
+    table says what each schedule and column is (`study_legend`).
     """
     header = (
         "schedule", "solver", "setting", "error", "max_error", "linf_error", "l2_error", "seconds",
@@ -36,9 +38,10 @@ def format_table(rows: Sequence[dict[str, Any]]) -> str:
     lines = []
     for row in grouped:
         errors = (row["error"], row["max_error"], row.get("linf_error", math.nan), row.get("l2_error", math.nan))
+        floor = row.get("reference_floor", math.nan)
         line = (
             row["schedule"], row["label"], row["setting"],
-            *(f"{e:.2e}" if row["solver_ok"] else "failed" for e in errors),
+            *(_error(e, floor if i < 2 else math.nan) if row["solver_ok"] else "failed" for i, e in enumerate(errors)),
             f"{row['seconds']:.2e}" + ("~" if timing_unresolved(row) else ""),
             f"{row['steps']:.0f} ({row.get('rejected_steps', 0.0):.0f})",
             _number(row["vector_field_evaluations"], ".0f"), _number(row.get("energy_drift", math.nan)),
@@ -52,7 +55,40 @@ def format_table(rows: Sequence[dict[str, Any]]) -> str:
             f"\n~ timing not resolved: within {UNRESOLVED_TIMING_FACTOR:g}x of an empty compiled call, or repeats "
             f"differing by more than {UNRESOLVED_SPREAD:.0%}; compare f-evals instead"
         )
-    return table
+    return table + "\n" + study_legend(grouped)
+
+
+def _error(value: float, floor: float) -> str:
+    return f"{value:.2e}" + ("*" if value <= floor else "")
+
+
+SCHEDULE_WORDS = {
+    "recorded": "a seeded random action from the action space at each env step",
+    "zero": "no input (energy drift measured where the scene conserves energy)",
+    "constant": "one action held throughout",
+}
+"""What each action schedule of a study is, in words (`StudyConfig.schedules`)."""
+
+
+def study_legend(rows: Sequence[dict[str, Any]]) -> str:
+    """What the table's schedules and columns are, from the rows' own batch, horizon and floors."""
+    first = rows[0] if rows else {}
+    batch, horizon = first.get("batch", "?"), first.get("horizon", "?")
+    schedules = dict.fromkeys(row["schedule"] for row in rows)
+    lines = [f"schedule {name}: {SCHEDULE_WORDS.get(name, 'actions as configured')}" for name in schedules]
+    lines += [
+        f"error: max-norm of the state error at the final time, the worst of a batch of {batch} starts; max_error: "
+        "the same, the largest at any env step's end; linf_error, l2_error: max and root mean square over a dense "
+        "grid inside the env steps (the solver's own interpolation); all against SciPy's reference",
+        f"seconds: the fastest of the repeats of one compiled run of the batch of {batch} over {horizon} env steps; "
+        "steps (rejected): accepted (rejected) solver steps per trajectory; f-evals: vector-field evaluations per "
+        "trajectory",
+    ]
+    floors = {row["schedule"]: row.get("reference_floor", math.nan) for row in rows}
+    if any(math.isfinite(floor) for floor in floors.values()):
+        shown = ", ".join(f"{name} {floor:.1e}" for name, floor in floors.items() if math.isfinite(floor))
+        lines.append(f"* at or below the reference's floor ({shown}): the error is the reference's, not the solver's")
+    return "\n".join(lines)
 
 
 def format_orders(orders: Sequence[dict[str, Any]]) -> str:
@@ -98,4 +134,4 @@ def format_gradient_variance_table(rows: Sequence[dict[str, Any]]) -> str:
     ))
 
 
-__all__ = ["format_gradient_table", "format_gradient_variance_table", "format_orders", "format_table"]
+__all__ = ["format_gradient_table", "format_gradient_variance_table", "format_orders", "format_table", "study_legend"]

@@ -21,7 +21,12 @@ from ._adjoint import (
 from ._controller import GuardedPIDController as GuardedPIDController
 from ._dense import HermiteDenseOutput as HermiteDenseOutput
 from ._facts import SolverFacts as SolverFacts, has_error_estimate as has_error_estimate, solver_facts as solver_facts
-from ._integrator import EpisodeTime as EpisodeTime, Integrator as Integrator, make_integrator as make_integrator
+from ._integrator import (
+    EpisodeTime as EpisodeTime,
+    Integrator as Integrator,
+    make_integrator as make_integrator,
+    tolerance_floors as tolerance_floors,
+)
 from ._presets import (
     SOLVERS as SOLVERS,
     SolverPreset as SolverPreset,

@@ -21,7 +21,7 @@ env's `Integrator`. Three are useful:
   reported in `info["solver_ok"]`, not raised), and a plain `diffrax.BacksolveAdjoint()`
   passes that on to its backward solve, whose failure then yields a finite, wrong
   gradient that nothing reports: 900 times too large on one step of
-  `VanDerPol(mu=1000, dt=1)` with Kvaerno5 (`tests/test_gradients.py`). The named
+  `make("VanDerPol", mu=1000, dt=1)` with Kvaerno5 (`tests/test_gradients.py`). The named
   adjoint gives the backward solve `throw=True`, so that this failure raises; a plain
   one warns (`warn_if_silent`). A backward solve that succeeds can still drift from the
   forward trajectory (README, Gradients): prefer `"checkpoint"` on stiff dynamics.

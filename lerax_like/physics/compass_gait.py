@@ -41,6 +41,8 @@ class CompassGaitDynamics(AbstractWalkerDynamics):
     """
 
     velocity_indices: ClassVar[tuple[int, ...]] = (2, 3)
+    # The state's components by name, as the docstring writes them (`lerax-like gait` prints them).
+    state_names: ClassVar[tuple[str, ...]] = ("theta_s", "theta_w", "theta_s_dot", "theta_w_dot")
 
     lower_length: Scalar = eqx.field(default=0.5, converter=POSITIVE)
     upper_length: Scalar = eqx.field(default=0.5, converter=POSITIVE)

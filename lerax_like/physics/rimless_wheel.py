@@ -50,6 +50,8 @@ class RimlessWheelDynamics(AbstractWalkerDynamics):
     """
 
     velocity_indices: ClassVar[tuple[int, ...]] = (1,)
+    # The state's components by name, as the docstring writes them (`lerax-like gait` prints them).
+    state_names: ClassVar[tuple[str, ...]] = ("theta", "theta_dot")
 
     leg_length: Scalar = eqx.field(default=1.0, converter=POSITIVE)  # m
     spoke_half_angle: Scalar = eqx.field(default=jnp.pi / 8, converter=HALF_ANGLE)  # rad, half the angle between spokes

@@ -43,6 +43,8 @@ class SimplestWalkerDynamics(AbstractWalkerDynamics):
     """
 
     velocity_indices: ClassVar[tuple[int, ...]] = (2, 3)
+    # The state's components by name, as the docstring writes them (`lerax-like gait` prints them).
+    state_names: ClassVar[tuple[str, ...]] = ("theta", "phi", "theta_dot", "phi_dot")
 
     slope: Scalar = eqx.field(default=0.009, converter=SLOPE)
 

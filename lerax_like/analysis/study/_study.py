@@ -343,7 +343,8 @@ def _progress_bar(total: int, enabled: bool, description: str):
         except ImportError:  # progress bars are optional: pip install 'lerax_like[study]'
             pass
         else:
-            return tqdm(total=total, desc=description, leave=False)
+            # disable=None: no bar where stderr is no terminal (a log file, a pipe), which it would fill.
+            return tqdm(total=total, desc=description, leave=False, disable=None)
     return None
 
 
