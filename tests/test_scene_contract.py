@@ -23,6 +23,7 @@ import numpy as np
 import pytest
 
 import lerax_like as ll
+from lerax_like._fields import parameter_range
 
 
 SECTIONS = ("Description", "Action Space", "Observation Space", "Rewards", "Starting State", "Episode End", "Arguments")
@@ -141,7 +142,7 @@ def test_declared_stochastic_matches_behaviour(name):
 
 
 def _parameter_fields(module):
-    return [field for field in dataclasses.fields(module) if field.metadata.get("range") is not None]
+    return [field for field in dataclasses.fields(module) if parameter_range(field) is not None]
 
 
 @pytest.mark.parametrize("name", NAMES)

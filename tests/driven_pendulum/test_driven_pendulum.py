@@ -40,7 +40,7 @@ _rollout = eqx.filter_jit(ll.rollout)
 @pytest.mark.parametrize("start_step", [0, 1000], ids=["from_reset", "mid_episode"])
 def test_a_driven_pendulum_follows_scipy_with_episode_time(start_step):
     integrator = ll.make_integrator("dopri8", diffrax.PIDController(rtol=1e-12, atol=1e-12), max_steps=10_000)
-    env = DrivenPendulum(integrator=integrator, drive_amplitude=1.5)  # Baker and Gollub's chaotic drive
+    env = ll.make(DrivenPendulum, integrator=integrator, drive_amplitude=1.5)  # Baker and Gollub's chaotic drive
     steps, dt = 200, float(env.dt)  # 10 s: more than one period of the drive (3 pi s)
     actions = np.sin(0.3 * np.arange(steps))[:, None]
     y0 = np.array([0.2, -0.1])

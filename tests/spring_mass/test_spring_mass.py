@@ -44,7 +44,7 @@ _rollout = eqx.filter_jit(ll.rollout)
 def test_a_constant_force_follows_the_closed_form(damping, action):
     mass, stiffness, force_mag = 1.5, 4.0, 2.0
     integrator = ll.make_integrator("dopri8", diffrax.PIDController(rtol=1e-12, atol=1e-12), max_steps=10_000)
-    env = SpringMass(mass=mass, stiffness=stiffness, damping=damping, force_mag=force_mag, integrator=integrator)
+    env = ll.make(SpringMass, mass=mass, stiffness=stiffness, damping=damping, force_mag=force_mag, integrator=integrator)
     x0, v0, steps = 0.8, -0.3, 60
     state = ll.EnvState(y=jnp.array([x0, v0]), steps=jnp.asarray(0))
     ys, info = _rollout(env, state, jnp.full((steps, 1), action))
