@@ -121,12 +121,16 @@ def test_a_source_tree_imports_without_the_package_installed():
 
 
 def _editable_install() -> bool:
-    """Whether the environment's lerax_like is an editable install (pip's direct_url.json says so)."""
-    try:
-        direct_url = importlib.metadata.distribution("lerax_like").read_text("direct_url.json")
-    except importlib.metadata.PackageNotFoundError:
-        return False
-    return bool(direct_url) and bool(json.loads(direct_url).get("dir_info", {}).get("editable"))
+    """Whether the environment's lerax_like is an editable install (pip's direct_url.json says so).
+
+    Every distribution of that name is asked: run from the clone, the first one found on the path
+    is the clone's own `lerax_like.egg-info` (the build writes it there), which pip's record is not in.
+    """
+    for distribution in importlib.metadata.distributions(name="lerax_like"):
+        direct_url = distribution.read_text("direct_url.json")
+        if direct_url and json.loads(direct_url).get("dir_info", {}).get("editable"):
+            return True
+    return False
 
 
 def test_the_readme_installs_in_a_mode_that_type_checkers_follow():

@@ -36,7 +36,7 @@ SpringDynamics(stiffness="stiff")
 '''
 # The bad lines above, each an error: misspelt or mistyped keywords of dynamics, add-ons, scenes
 # and the integrator, and of a user's own scene (`tests/typed_example.py`, beside the bad file).
-BAD_LINES = list(range(3, 16))
+BAD_LINES = list(range(2, 16))
 
 
 def test_the_package_and_the_typed_example_type_check_and_a_bad_call_does_not(tmp_path):
