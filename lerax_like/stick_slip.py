@@ -218,16 +218,8 @@ class FrictionModes(eqx.Module):
 
 
 def integrate_with_friction(
-    integrator: Integrator,
-    physics: AbstractDynamics,
-    dynamics: AbstractDynamics,
-    friction: AbstractCoulombFriction,
-    y0: State,
-    u: Input,
-    dt: ScalarLike,
-    *,
-    projection: Callable[[State], State] | None = None,
-    t0: ScalarLike = 0.0,
+    integrator: Integrator, physics: AbstractDynamics, dynamics: AbstractDynamics, friction: AbstractCoulombFriction,
+    y0: State, u: Input, dt: ScalarLike, *, projection: Callable[[State], State] | None = None, t0: ScalarLike = 0.0,
 ) -> tuple[State, dict[str, Array]]:
     """Solve over `[0, dt]` from `y0` with the friction's stick-slip switches located (module docstring);
     the vector field reads the episode's time `t0 + s`.
