@@ -239,8 +239,8 @@ def test_semi_implicit_euler_pushed_into_a_wall_comes_to_rest_without_failing(sc
     # it settles on impacts at h a / (1 + e), above any rebound threshold. Each ran out of
     # events on CartPoleContinuous (`solver_ok` False from the 7th step; from the 10th with the
     # first trap alone removed); now the cart comes to rest.
-    env = ll.SCENES[scene](
-        solver="semi_implicit_euler", restitution=0.8, track_limit=0.06, x_threshold=jnp.inf, theta_threshold_radians=jnp.inf
+    env = ll.make(
+        scene, solver="semi_implicit_euler", restitution=0.8, track_limit=0.06, x_threshold=jnp.inf, theta_threshold_radians=jnp.inf
     )
     states = jax.vmap(lambda key: env.reset(key=key)[0])(jax.random.split(jax.random.key(1), 4))
     push = jnp.asarray(1) if env.action_space.shape == () else jnp.ones(env.action_space.shape)
