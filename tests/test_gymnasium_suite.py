@@ -266,9 +266,11 @@ def test_made_spec_equals_registered_spec(env_id):
     assert gymnasium.make(env_id).spec == gymnasium.spec(env_id)
     registered = gymnasium.spec(env_id)
     assert isinstance(registered.entry_point, str) and isinstance(registered.vector_entry_point, str)
-    # The entry point names the class that `make` builds.
+    # The entry point names what `make` calls: a creator of the env class `make` builds,
+    # whose metadata (read by `make` before it builds) is the env's.
     module, name = registered.entry_point.split(":")
-    assert type(gymnasium.make(env_id).unwrapped) is getattr(sys.modules[module], name)
+    creator, made = getattr(sys.modules[module], name), gymnasium.make(env_id).unwrapped
+    assert type(made) is creator.env_class and creator.metadata == made.metadata
 
 
 @pytest.mark.parametrize("env_id", ALL_IDS)

@@ -1,9 +1,9 @@
 """The Gymnasium layer: `gymnasium.make("lerax_like/CartPole-v1")` and friends.
 
 The only part of the package that imports gymnasium. On `import lerax_like` the ids of
-`SPECS` (id -> `GymSpec`, every scene of `lerax_like.SCENES`) are registered, with string entry points naming the classes
-of `lerax_like.gym.envs` (one `GymnasiumEnv` and one `GymnasiumVectorEnv` subclass per
-id: `CartPoleEnv` behind `gymnasium.make`, `CartPoleVectorEnv` behind
+`SPECS` (id -> `GymSpec`, every scene of `lerax_like.SCENES`) are registered, with string entry points naming the
+creators of `lerax_like.gym.envs` (two per id: `CartPoleEnv` builds the `GymnasiumEnv` of
+`gymnasium.make`, `CartPoleVectorEnv` the `GymnasiumVectorEnv` of
 `gymnasium.make_vec(..., vectorization_mode="vector_entry_point")`).
 """
 

@@ -9,13 +9,14 @@ import numpy as np
 
 from ..env import AbstractEnv
 from . import _render
+from ._attributes import GymnasiumAttributes
 from ._inputs import check_action, check_state
 from ._compiled import SplitScene, build_scene, float64, pack_step, to_device, to_host, to_numpy, unpack_step
 from ._spaces import to_gymnasium_space
 from ._specs import GymSpec
 
 
-class GymnasiumEnv(gymnasium.Env):
+class GymnasiumEnv(GymnasiumAttributes, gymnasium.Env):
     """A lerax_like scene as a Gymnasium env (what `gymnasium.make("lerax_like/<id>")` builds).
 
     Behaves as Gymnasium's own env of the same name:
@@ -41,6 +42,9 @@ class GymnasiumEnv(gymnasium.Env):
     `gymnasium.make` (`solver="rk4"`, `stepsize_controller`, physical parameters) go to
     the scene. The info holds the integrator's `solver_ok` and `solver_steps`, and
     `action_ok`; a failed solve keeps the pre-step state and terminates the episode.
+
+    It has Gymnasium's attributes of the id's env (`masspole`, `tau`, ...), readable and
+    writable (`GymnasiumAttributes`).
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 50}

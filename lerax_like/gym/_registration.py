@@ -8,8 +8,8 @@ from ._specs import SPECS
 def register_envs() -> tuple[str, ...]:
     """Register every id of `SPECS` (one per scene of `lerax_like.SCENES`); return the ids now registered.
 
-    The entry points are strings naming the classes of `lerax_like.gym.envs`, as Gymnasium's
-    own ids do. Called on `import lerax_like`. Idempotent: ids already in Gymnasium's
+    The entry points are strings naming the creators of `lerax_like.gym.envs`, as Gymnasium's
+    own ids name its env classes. Called on `import lerax_like`. Idempotent: ids already in Gymnasium's
     registry are left as they are.
     """
     from .envs import entry_points

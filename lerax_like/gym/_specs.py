@@ -12,6 +12,7 @@ attributes the spec maps, or for the other scenes lerax_like's own (`RENDERERS`)
 """
 
 import dataclasses
+import functools
 import math
 import operator
 from typing import Any, Literal
@@ -33,7 +34,7 @@ class GymnasiumSpec:
     - `attributes`: Gymnasium's attribute names on its env and the scene's path for each
       (`("masspole", "dynamics.pole_mass")`; a name listed twice when Gymnasium's one
       attribute is several parameters, as Acrobot's `LINK_MOI`). The renderer reads them,
-      and the Gymnasium env has them as properties that users read and write.
+      and the Gymnasium envs have them as attributes that users read and write.
     - `reset_options`: how Gymnasium's `reset(options=...)` bounds the start: `"bounds"`
       (`low`/`high` for every drawn coordinate) or `"pendulum"` (`x_init`, `y_init`).
     - `float32_start`: Gymnasium's env stores its start in float32 (Acrobot).
@@ -171,6 +172,15 @@ class GymSpec:
     def declared(self) -> GymnasiumSpec:
         declared = GYMNASIUM_SPECS.get(self.scene)
         return _own_spec(self.scene) if declared is None else declared
+
+    @functools.cached_property
+    def attribute_paths(self) -> dict[str, tuple[str, ...]]:
+        """Gymnasium's attribute names on its env -> the scene's paths each stands for (two for
+        Acrobot's `LINK_MOI`, both links' moment of inertia)."""
+        paths: dict[str, tuple[str, ...]] = {}
+        for gymnasium_name, path in self.declared.attributes:
+            paths[gymnasium_name] = (*paths.get(gymnasium_name, ()), path)
+        return paths
 
     @property
     def stands_for_gymnasium(self) -> bool:

@@ -8,6 +8,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from . import _render
+from ._attributes import GymnasiumAttributes
 from ._inputs import check_actions
 from ._batch import Batch, Outcome
 from ._compiled import build_scene, check_dtype, float64
@@ -16,7 +17,7 @@ from ._specs import GymSpec
 from .._types import IntScalar
 
 
-class GymnasiumVectorEnv(VectorEnv):
+class GymnasiumVectorEnv(GymnasiumAttributes, VectorEnv):
     """`num_envs` copies of a scene (what `gymnasium.make_vec("lerax_like/<id>", N,
     vectorization_mode="vector_entry_point")` builds).
 
@@ -48,6 +49,8 @@ class GymnasiumVectorEnv(VectorEnv):
     `state` is the state in the layout of Gymnasium's vector CartPole (`(n, num_envs)`,
     of `dtype`), readable and writable. The info holds the per-env `solver_ok`,
     `solver_steps` and `action_ok`, with Gymnasium's `_name` masks. Rewards are of `dtype`.
+    Gymnasium's attributes of the id's env (`masspole`, `tau`, ...) read and write the scene
+    all envs share (`GymnasiumAttributes`).
     Actions are checked on the host: one that cannot be applied (out of range, not an
     integer, not finite) is refused with a `ValueError` naming it and the space.
 

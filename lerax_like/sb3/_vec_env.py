@@ -11,19 +11,18 @@ from gymnasium.utils import seeding
 from stable_baselines3.common.monitor import Monitor
 from stable_baselines3.common.vec_env import VecEnv, VecMonitor
 
-from .._module_attributes import generated_names
-from ..gym import SPECS, GymnasiumVectorEnv
+from ..gym import SPECS, GymSpec, GymnasiumVectorEnv
+from ..gym._attributes import GymnasiumAttributes
 from ..gym._inputs import check_actions
-from ..gym.envs import ENV_CLASSES
 
 
-class EnvView:
+class EnvView(GymnasiumAttributes):
     """Env `index` of a `CompiledVecEnv`, as `DummyVecEnv`'s `get_attr`, `set_attr` and
     `env_method` see its single env (the `Monitor` over `gymnasium.make(env_id)`).
 
-    It has Gymnasium's attributes of the id (`masspole`, `goal_velocity`, ...: those of
-    `lerax_like.gym.envs`' classes), read from this env's scene and written to it alone:
-    a write changes this env's physics from its next step on. `scene` is this env's scene,
+    It has Gymnasium's attributes of the id (`masspole`, `goal_velocity`, ...:
+    `GymnasiumAttributes`), read from this env's scene and written to it alone: a write
+    changes this env's physics from its next step on. `scene` is this env's scene,
     `state` its state, `np_random` its generator, `render()` its frame (`rgb_array`) or the
     window of all envs (`human`); `get_wrapper_attr`, `set_wrapper_attr` and
     `has_wrapper_attr` are Gymnasium's. Other names read the vector env's shared
@@ -31,9 +30,10 @@ class EnvView:
     does not have is kept on this view, as `DummyVecEnv` keeps it on the wrapper.
     """
 
-    def __init__(self, venv: "CompiledVecEnv", index: int):
-        object.__setattr__(self, "_venv", venv)
-        object.__setattr__(self, "_index", index)
+    def __init__(self, venv: "CompiledVecEnv", index: int, spec: GymSpec):
+        self._venv = venv
+        self._index = index
+        self._gym_spec = spec
 
     @property
     def scene(self):
@@ -89,26 +89,15 @@ class EnvView:
         return False
 
     def __getattr__(self, name: str) -> Any:
-        # Only for names this class and its instance lack: the vector env's shared ones.
-        # Private names are not forwarded (a view being unpickled has no `_venv` yet).
-        if name.startswith("_"):
-            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
-        return getattr(self._venv.vector, name)
-
-    def __setattr__(self, name: str, value: Any) -> None:
-        if isinstance(getattr(type(self), name, None), property):
-            object.__setattr__(self, name, value)
-        else:
-            self.__dict__[name] = value
-
-
-def _view_class(env_id: str) -> type[EnvView]:
-    """`EnvView` with the id's Gymnasium attributes: the properties of its env class, which
-    read and write `self.scene` (here, one env's scene)."""
-    vector_class = ENV_CLASSES[env_id][1]
-    names = dict.fromkeys(name for name, _ in SPECS[env_id].declared.attributes)
-    attributes = {name: vars(vector_class)[name] for name in names}
-    return type(f"{vector_class.__name__}View", (EnvView,), {"__module__": __name__, **attributes})
+        # Only for names this class and its instance lack: Gymnasium's attributes of the id,
+        # then the vector env's shared ones. Private names are not forwarded (a view being
+        # unpickled has no `_venv` yet).
+        try:
+            return super().__getattr__(name)
+        except AttributeError:
+            if name.startswith("_"):
+                raise
+            return getattr(self._venv.vector, name)
 
 
 def inline_cpu_dispatch() -> None:
@@ -125,11 +114,6 @@ def inline_cpu_dispatch() -> None:
     started = getattr(xla_bridge, "backends_are_initialized", lambda: True)()
     if not started:
         jax.config.update("jax_cpu_enable_async_dispatch", False)
-
-
-_VIEW_CLASSES = {env_id: _view_class(env_id) for env_id in SPECS}
-# Found by name, so that pickle finds them (a VecEnv with its views pickles).
-__getattr__ = generated_names(__name__, {cls.__name__: cls for cls in _VIEW_CLASSES.values()})
 
 
 class CompiledVecEnv(VecEnv):
@@ -230,7 +214,7 @@ class CompiledVecEnv(VecEnv):
             self._unchecked = (np.dtype(np.int64), (num_envs,)) if dtype == "float64" else None
         else:
             self._unchecked = (np.dtype(dtype), (num_envs, *action_space.shape))
-        self._views = [_VIEW_CLASSES[env_id](self, index) for index in range(num_envs)]
+        self._views = [EnvView(self, index, spec) for index in range(num_envs)]
         super().__init__(num_envs, self._vector.single_observation_space, self._vector.single_action_space)
 
     # -- SB3's VecEnv ------------------------------------------------------------------
