@@ -75,10 +75,46 @@ def hermite_dip(g0, g1, m0, m1):
     return s, h00 * g0 + h10 * m0 + h01 * g1 + h11 * m1
 
 
+@final
+class TimeBisection(optimistix.Bisection):
+    """Bisection that stops when the bracket in time is within tolerance, whatever the condition's value.
+
+    `optimistix.Bisection` also asks `|condition| < atol`: a normal force of 10 N is
+    computed to about 1e-15 N, never below `atol` = 4 machine epsilons, and the root find
+    ran out of steps. The time bracket is what locates the switch.
+    """
+
+    def init(self, fn, y, args, options, f_struct, aux_struct, tags):
+        leaves = jax.tree.leaves(f_struct)
+        return super().init(_one_condition(fn), y, args, options, leaves[0], aux_struct, tags)
+
+    def step(self, fn, y, args, options, state, tags):
+        return super().step(_one_condition(fn), y, args, options, state, tags)
+
+    def terminate(self, fn, y, args, options, state, tags):
+        del fn, args, options, tags
+        scale = self.atol + self.rtol * jnp.abs(y)
+        return jnp.abs(state.lower - state.upper) < scale, optimistix.RESULTS.successful
+
+
+def _one_condition(fn) -> Any:
+    """`fn` with several conditions' values summed: diffrax's root find zeroes all but the one
+    that fired (`diffrax.Event` with a tuple of conditions), so the sum is that one; a single
+    condition is passed through unchanged."""
+
+    def condition(y, args):
+        value, aux = fn(y, args)
+        leaves = jax.tree.leaves(value)
+        return (leaves[0] if len(leaves) == 1 else sum(leaves[1:], leaves[0])), aux
+
+    return condition
+
+
 class SegmentEnd(NamedTuple):
     """Where a segment ended: its state and time (the inputs, for an env already at `dt`), the
-    solve's result, whether it succeeded (an event ends a segment successfully), and its
-    accepted and attempted steps (0 for an env already at `dt`)."""
+    solve's result, whether it succeeded (an event ends a segment successfully), its
+    accepted and attempted steps (0 for an env already at `dt`), and which condition ended
+    it (`diffrax.Solution.event_mask`, shaped as the conditions given: all False when none)."""
 
     y: State
     t: Scalar
@@ -86,20 +122,21 @@ class SegmentEnd(NamedTuple):
     solved: BoolScalar
     accepted: IntScalar
     tried: IntScalar
+    fired: Any = None
 
 
 def segment_solver(
     integrator: Integrator,
     vector_field: Callable,
     velocity_indices: tuple[int, ...] | None,
-    condition: Callable,
+    condition: Callable | tuple[Callable, ...],
     guard: Callable,
     dt: Scalar,
     *,
     root_finder: type[optimistix.Bisection] = optimistix.Bisection,
 ) -> Callable[[State, Scalar, Any], SegmentEnd]:
     """`solve(y, t, args)`: the solve from `(t, y)` towards `dt` that stops at the first zero of
-    `condition`, located by bisection to a few machine epsilons in time, falling only.
+    `condition` (a callable, or a tuple of them: `SegmentEnd.fired` says which), located by bisection to a few machine epsilons in time, falling only.
 
     An adaptive step of the integrator's `PIDController` is also checked by `guard`
     (`GrazingGuardController`), so that a short dip of a condition within a step is located.
@@ -148,6 +185,7 @@ def segment_solver(
             solved=(result == diffrax.RESULTS.successful) | (result == diffrax.RESULTS.event_occurred),
             accepted=jnp.where(done, 0, solution.stats["num_accepted_steps"]),
             tried=jnp.where(done, 0, solution.stats["num_steps"]),
+            fired=jax.tree.map(lambda fired: fired & ~done, solution.event_mask),
         )
 
     return solve
@@ -188,6 +226,7 @@ __all__ = [
     "IDLE_FRACTION",
     "GrazingGuardController",
     "SegmentEnd",
+    "TimeBisection",
     "finish_step",
     "hermite_dip",
     "scan_segments",

@@ -14,7 +14,7 @@ everything else calls: `rollout`, the Gymnasium layer, the studies.
 """
 
 import abc
-from typing import TYPE_CHECKING, Any, ClassVar, Generic, NamedTuple, TypeVar, overload
+from typing import TYPE_CHECKING, Any, ClassVar, Generic, NamedTuple, TypeVar, cast, overload
 
 import equinox as eqx
 import jax
@@ -125,13 +125,8 @@ class AbstractEnv(AbstractParametrised):
         friction = getattr(self, "friction", ())
         for addon in friction:
             addon.check(self.dynamics)
-        if len(friction) > 1:
+        if len(friction) > 1:  # friction beside located contacts is one loop: `lerax_like.contact_friction`
             raise ValueError(f"{type(self).__name__} takes at most one friction add-on, got {len(friction)}")
-        if friction and getattr(self, "contacts", ()):
-            raise ValueError(
-                f"{type(self).__name__}: Coulomb friction and located contacts (restitution, walls) cannot be "
-                "combined yet; give either the friction keywords or the contact ones"
-            )
 
     def __init_subclass__(cls, **keywords):
         super().__init_subclass__(**keywords)
@@ -244,7 +239,10 @@ class AbstractEnv(AbstractParametrised):
         (`lerax_like.hybrid`); its info also holds `impacts` and `first_impact_time`. A
         scene with Coulomb friction (a field `friction`, `lerax_like.physics.friction`) is
         integrated mode by mode, stick and slip, its switches located (`lerax_like.stick_slip`);
-        its info also holds `switches`, `first_switch_time` and `friction_consistent`.
+        its info also holds `switches`, `first_switch_time` and `friction_consistent`. Both
+        together are one located-event loop (`lerax_like.contact_friction`). A disk
+        on a floor (a field `floor`, `lerax_like.physics.rolling_disk.DiskFloor`) is integrated
+        by `lerax_like.floor_contact`: flight, impacts with friction, stick and slip.
 
         The info holds `solver_ok`, `solver_steps` and `solver_rejected_steps`. A failed
         solve (non-finite state, exhausted step budget) keeps the pre-step state, so that
@@ -256,8 +254,22 @@ class AbstractEnv(AbstractParametrised):
         t0 = episode_time(state.steps, self.dt)
         projection = self.project if self.projects_state() else None
         friction = getattr(self, "friction", ())
+        floor = getattr(self, "floor", None)
         with forward_mode_hint(self.integrator.adjoint):
-            if friction:
+            if floor is not None:
+                from .floor_contact import integrate_on_floor
+
+                y, info = integrate_on_floor(
+                    self.integrator, cast(Any, self.dynamics), floor, state.y, u, self.dt, projection=projection, t0=t0
+                )
+            elif friction and contacts:
+                from .contact_friction import integrate_with_contacts_and_friction
+
+                y, info = integrate_with_contacts_and_friction(
+                    self.integrator, physics, self.dynamics, contacts, friction[0], state.y, u, self.dt,
+                    projection=projection, t0=t0,
+                )
+            elif friction:
                 from .stick_slip import integrate_with_friction
 
                 y, info = integrate_with_friction(

@@ -45,27 +45,12 @@ import jax
 import jax.numpy as jnp
 import optimistix
 
-from ._segments import finish_step, hermite_dip, scan_segments, segment_solver
+from ._segments import TimeBisection, finish_step, hermite_dip, scan_segments, segment_solver
 from ._types import Array, Float, Input, ScalarLike, State
 from .integrate import Integrator
 from .physics import AbstractDynamics
 from .physics.contact import with_coordinates
 from .physics.friction import AbstractCoulombFriction
-
-
-@final
-class _TimeBisection(optimistix.Bisection):
-    """Bisection that stops when the bracket in time is within tolerance, whatever the condition's value.
-
-    `optimistix.Bisection` also asks `|condition| < atol`: a normal force of 10 N is
-    computed to about 1e-15 N, never below `atol` = 4 machine epsilons, and the root find
-    ran out of steps. The time bracket is what locates the switch.
-    """
-
-    def terminate(self, fn, y, args, options, state, tags):
-        del fn, args, options, tags
-        scale = self.atol + self.rtol * jnp.abs(y)
-        return jnp.abs(state.lower - state.upper) < scale, optimistix.RESULTS.successful
 
 
 # Which condition ended a segment (its index in `FrictionModes.conditions`).
@@ -232,7 +217,7 @@ def integrate_with_friction(
     dt = jnp.asarray(dt, dtype=dtype)
     solve = segment_solver(
         integrator, modes.vector_field, physics.velocity_indices, modes.condition, modes.guard, dt,
-        root_finder=_TimeBisection,
+        root_finder=TimeBisection,
     )
 
     def solve_segment(carry):
