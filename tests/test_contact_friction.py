@@ -29,7 +29,7 @@ DT = 0.02
 
 
 def _env(**settings):
-    return ll.make("CartPoleContinuous", 
+    return ll.make("CartPoleContinuous",
         restitution=E, cart_kinetic_friction=MU_K, cart_static_friction=MU_S, track_limit=LIMIT,
         x_threshold=jnp.inf, theta_threshold_radians=jnp.inf, dt=DT, **settings,
     )
@@ -161,7 +161,7 @@ def test_a_block_slides_into_the_wall_at_the_end_of_its_plane_rebounds_and_stick
     # Level plane, kinetic mu: it reaches the wall (distance d) at v1 = sqrt(v0^2 - 2 mu g d),
     # rebounds at e v1, slides back (e v1)^2 / (2 mu g) and sticks there (no load).
     mu, g, e, d, v0 = 0.3, 9.81, 0.6, 0.5, 3.0
-    env = ll.make("SlidingBlock", 
+    env = ll.make("SlidingBlock",
         static_friction=0.5, kinetic_friction=mu, gravity=g, restitution=e, plane_end=d, dt=0.05,
         solver="dopri8", stepsize_controller=diffrax.PIDController(rtol=1e-12, atol=1e-12), max_steps=100_000,
     )

@@ -31,7 +31,7 @@ DT, STEPS = 0.25, 4  # T = 1 s, past t* for every mu >= 0.1
 
 def _disk(mu=0.3, **floor):
     floor = {"static_friction": 1.0, "kinetic_friction": mu} | floor
-    return ll.RollingDisk(radius=RADIUS, gravity=G, dt=DT, floor=DiskFloor(**floor))
+    return ll.make("RollingDisk", radius=RADIUS, gravity=G, dt=DT, floor=DiskFloor(**floor))
 
 
 def _launched(env, v0=V0):
@@ -111,7 +111,7 @@ def _dropped(x_dot, angle_dot, fall_speed):
 @pytest.mark.parametrize("mu", [1.0, 0.05])
 def test_first_impact_matches_sticking_and_sliding_closed_forms(mu):
     e = 0.5
-    env = ll.RollingDisk(radius=RADIUS, gravity=G, dt=1e-3, floor=DiskFloor(static_friction=1.0, kinetic_friction=mu, restitution=e))
+    env = ll.make("RollingDisk", radius=RADIUS, gravity=G, dt=1e-3, floor=DiskFloor(static_friction=1.0, kinetic_friction=mu, restitution=e))
     x_dot, angle_dot, fall_speed = 1.5, -4.0, 3.0
     state, info = _evolve(env, _dropped(x_dot, angle_dot, fall_speed))
     assert bool(info["solver_ok"]) and int(info["impacts"]) == 1
@@ -138,7 +138,7 @@ def test_first_impact_matches_sticking_and_sliding_closed_forms(mu):
 
 
 def test_slow_rebound_closes_the_contact_and_rolls():
-    env = ll.RollingDisk(radius=RADIUS, gravity=G, dt=0.1, floor=DiskFloor(restitution=0.0, static_friction=1.0, kinetic_friction=1.0))
+    env = ll.make("RollingDisk", radius=RADIUS, gravity=G, dt=0.1, floor=DiskFloor(restitution=0.0, static_friction=1.0, kinetic_friction=1.0))
     state, info = _evolve(env, _dropped(1.0, 0.0, 1.0))
     assert bool(info["solver_ok"]) and int(info["impacts"]) == 1
     _, z, _, x_dot, z_dot, angle_dot = np.asarray(state.y)
@@ -210,7 +210,7 @@ def test_a_disk_thrown_with_backspin_bounces_skids_and_rolls_as_the_scipy_refere
     import diffrax
 
     floor = {"static_friction": 0.15, "kinetic_friction": 0.1, "restitution": 0.5, "min_rebound_speed": 0.05}
-    env = ll.RollingDisk(
+    env = ll.make("RollingDisk",
         radius=RADIUS, gravity=G, dt=0.02, floor=DiskFloor(**floor), solver="dopri8",
         stepsize_controller=diffrax.PIDController(rtol=1e-12, atol=1e-12), max_steps=100_000,
     )
@@ -239,7 +239,7 @@ def test_a_disk_thrown_with_backspin_bounces_skids_and_rolls_as_the_scipy_refere
 def test_a_step_that_needs_more_events_than_its_budget_fails_and_keeps_its_state():
     # Two impacts within the step (a fast rebound, then a slow one that closes), a budget of one event.
     floor = DiskFloor(restitution=0.5, min_rebound_speed=0.05, max_events=1)
-    env = ll.RollingDisk(radius=RADIUS, gravity=G, dt=0.05, floor=floor)
+    env = ll.make("RollingDisk", radius=RADIUS, gravity=G, dt=0.05, floor=floor)
     state = EnvState(y=jnp.array([0.0, RADIUS + 1e-4, 0.0, 0.0, -0.15, 0.0]), steps=jnp.zeros((), int))
     next_state, info = _evolve(env, state)
     assert not bool(info["solver_ok"])
