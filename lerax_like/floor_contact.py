@@ -1,7 +1,8 @@
 """One env step of a disk on a floor with friction: flight, impacts with friction, stick and slip.
 
-`integrate_on_floor` integrates over `[0, dt]` with the scene's `Integrator` segment by
-segment (`lerax_like._segments`), each segment in one mode `(closed, s)`:
+`FloorModes` is the disk on its floor as a hybrid system of the one loop
+(`lerax_like._segments.integrate_hybrid`), which integrates over `[0, dt]` with the scene's
+`Integrator` segment by segment, each segment in one mode `(closed, s)`:
 
 - open (`closed = 0`): free flight (`RollingDiskDynamics.vector_field`); its guard is the gap
   `z - radius`, falling through zero: an impact.
@@ -12,8 +13,7 @@ segment (`lerax_like._segments`), each segment in one mode `(closed, s)`:
   the friction force the torque needs (`holding_force`); the input is held over the step,
   so that force is constant and no guard falls within a segment.
 
-Which guard ended a segment is read from the solve (`diffrax.Solution.event_mask`), not
-recomputed. At the end of a segment, or at a step's start from the state:
+At the end of a segment, after the guard that fired, or at a step's start from the state:
 
 - an impact (a located fall of the gap, or a state that starts touching, `z <= radius`,
   moving in): `DiskFloor.impact` (Newton's restitution, Coulomb's bound on the tangential
@@ -27,7 +27,7 @@ recomputed. At the end of a segment, or at a step's start from the state:
 On a flat floor with only gravity vertical the normal force in contact is `m g > 0`: the
 contact never opens by itself, and no slip is inconsistent (no Painleve case). A step that
 needs more than `max_events` located events, or whose segment fails, reports
-`info["solver_ok"] = False` (`lerax_like._segments.finish_step`), never a silent state.
+`info["solver_ok"] = False`, never a silent state.
 
 Under `vmap` both branches of every `where` are computed: the impact map and every mode's
 field are finite in every state (no division by a state-dependent quantity).
@@ -36,28 +36,35 @@ The info holds `solver_ok`, `solver_steps`, `solver_rejected_steps`, `impacts` a
 `switches` (located in this step), `first_impact_time` and `first_switch_time` (`inf` when none).
 """
 
-from collections.abc import Callable
+from typing import ClassVar, final
 
-import diffrax
-import equinox as eqx
-import jax
 import jax.numpy as jnp
 
-from ._segments import TimeBisection, finish_step, scan_segments, segment_solver
-from ._types import Array, Input, ScalarLike, State
-from .integrate import Integrator
+from ._segments import AbstractModes, Settled
+from ._types import Array, Bool, Float, Input, Scalar, ScalarLike, State
 from .physics.rolling_disk import DiskFloor, RollingDiskDynamics
 
 
-class FloorModes(eqx.Module):
+@final
+class FloorModes(AbstractModes):
     """The disk's contact modes seen from the step: vector field, guards, and what follows an event.
 
     A mode is `(closed, s)`, floats: `closed` in {0, 1}, `s` in {-1, 0, 1} (0: sticking).
     """
 
+    kinds: ClassVar[tuple[str, ...]] = ("impact", "switch")
+
     dynamics: RollingDiskDynamics
     floor: DiskFloor
+    dt: Scalar
     t0: ScalarLike = 0.0  # the episode's time at the step's start: the field reads `t0 + t`
+
+    @property
+    def max_events(self) -> int:
+        return self.floor.max_events
+
+    def initial_mode(self, y: State):
+        return jnp.zeros((), y.dtype), jnp.zeros((), y.dtype)
 
     def vector_field(self, t, y: State, args) -> State:
         u, (closed, s) = args
@@ -68,20 +75,23 @@ class FloorModes(eqx.Module):
         rolling = self.dynamics.rolling_vector_field(t, y, u)
         return jnp.where(closed == 0, flight, jnp.where(s == 0, rolling, sliding))
 
-    def impact_guard(self, t, y: State, args, **kwargs):
-        del t, kwargs
-        _, (closed, _) = args
-        return jnp.where(closed == 0, y[1] - self.dynamics.radius, jnp.ones_like(y[1]))
-
-    def slip_guard(self, t, y: State, args, **kwargs):
-        del t, kwargs
+    def guards(self, t, y: State, args) -> Float[Array, " 2"]:
+        """In flight the gap `z - radius` (an impact); slipping, the slip speed `s w` (the slip ends)."""
+        del t
         _, (closed, s) = args
-        return jnp.where((closed == 1) & (s != 0), s * self.dynamics.slip_velocity(y), jnp.ones_like(y[1]))
+        one = jnp.ones_like(y[1])
+        return jnp.stack([
+            jnp.where(closed == 0, y[1] - self.dynamics.radius, one),
+            jnp.where((closed == 1) & (s != 0), s * self.dynamics.slip_velocity(y), one),
+        ])
 
-    def settle(self, y: State, u: Input, mode, ended: Array, impact_fired: Array, slip_fired: Array):
-        """The next segment's state and mode, after the event that ended the last (`ended`), or
-        read off the state at a step's start."""
+    def settle(self, t, y: State, u: Input, mode, fired: Bool[Array, " 2"]) -> Settled:
+        """The next segment's state and mode, after the guard that `fired`, or read off the
+        state at a step's start."""
+        del t
         closed, s = mode
+        ended = jnp.any(fired)
+        impact_fired, slip_fired = fired
         radius = self.dynamics.radius
         touching = y[1] <= radius
         impact = jnp.where(ended, impact_fired, touching & (y[4] < 0))
@@ -102,73 +112,7 @@ class FloorModes(eqx.Module):
         # A slip located to a few ulps of zero, or a state at rest, rolls exactly.
         y = jnp.where(now_closed & at_rest, y.at[3].set(radius * y[5]), y)
         new_mode = (now_closed.astype(y.dtype), jnp.where(now_closed, new_s, 0.0).astype(y.dtype))
-        return y, new_mode
+        return Settled(y, new_mode, (impact.astype(int), slip_fired.astype(int)), {})
 
 
-def integrate_on_floor(
-    integrator: Integrator,
-    dynamics: RollingDiskDynamics,
-    floor: DiskFloor,
-    y0: State,
-    u: Input,
-    dt: ScalarLike,
-    *,
-    projection: Callable[[State], State] | None = None,
-    t0: ScalarLike = 0.0,
-) -> tuple[State, dict[str, Array]]:
-    """Solve over `[0, dt]` from `y0` with the floor's impacts and stick-slip switches located (module
-    docstring); the vector field reads the episode's time `t0 + s`."""
-    modes = FloorModes(dynamics=dynamics, floor=floor, t0=t0)
-    dtype = y0.dtype
-    dt = jnp.asarray(dt, dtype=dtype)
-    no_dip = lambda t0, t1, y0, y1, args: jnp.ones((), dtype)  # flight's gap is concave, a slip's linear
-    solve = segment_solver(
-        integrator, modes.vector_field, dynamics.velocity_indices, (modes.impact_guard, modes.slip_guard),
-        no_dip, dt, root_finder=TimeBisection,
-    )
-
-    def solve_segment(carry):
-        y, t, mode, ended, fired, ok, steps, rejected, impacts, switches, first_impact, first_switch = carry
-        done = t >= dt
-        settled, new_mode = modes.settle(y, u, mode, ended, fired[0], fired[1])
-        # After a closing impact at a step's end the next step reads the state; here it is settled.
-        y = jnp.where(done, y, settled)
-        mode = jax.tree.map(lambda new, old: jnp.where(done, old, new), new_mode, mode)
-        end = solve(y, t, (u, mode))
-        event = (end.result == diffrax.RESULTS.event_occurred) & ~done
-        impact_fired, slip_fired = (event & mask for mask in end.fired)
-        return (
-            end.y,
-            end.t,
-            mode,
-            event,
-            (impact_fired, slip_fired),
-            ok & (done | end.solved),
-            steps + end.accepted,
-            rejected + end.tried - end.accepted,
-            impacts + impact_fired.astype(int),
-            switches + slip_fired.astype(int),
-            jnp.where(impact_fired & (first_impact == jnp.inf), end.t, first_impact),
-            jnp.where(slip_fired & (first_switch == jnp.inf), end.t, first_switch),
-        )
-
-    zero = jnp.zeros((), dtype=int)
-    false = jnp.asarray(False)
-    never = jnp.asarray(jnp.inf, dtype)
-    mode = (jnp.zeros((), dtype), jnp.zeros((), dtype))
-    initial = (y0, jnp.zeros((), dtype), mode, false, (false, false), jnp.asarray(True), zero, zero, zero, zero, never, never)
-    # Reverse mode keeps each segment's start only and recomputes the segment on the way back
-    # (as `lerax_like.hybrid`): otherwise it stores the internals of all `max_events + 1` segments.
-    final = scan_segments(jax.checkpoint(solve_segment, prevent_cse=False), initial, floor.max_events + 1, dt)
-    y, t, mode, ended, fired, ok, steps, rejected, impacts, switches, first_impact, first_switch = final
-    # An event at the step's very end is settled here, so that a closing impact or a stick
-    # located at `dt` leaves an exact state for the next step to read.
-    settled, _ = modes.settle(y, u, mode, ended, fired[0], fired[1])
-    y = jnp.where(ended, settled, y)
-    y, info = finish_step(y, t, ok, steps, rejected, dt, projection)
-    return y, info | {
-        "impacts": impacts, "switches": switches, "first_impact_time": first_impact, "first_switch_time": first_switch,
-    }
-
-
-__all__ = ["FloorModes", "integrate_on_floor"]
+__all__ = ["FloorModes"]
