@@ -196,14 +196,10 @@ class AbstractModes(eqx.Module):
     reads the mode off the state at a step's start (no guard fired). Impacts, friction
     switches and heel strikes are kinds of guard and reset; a scene that has several of
     them is one `AbstractModes` whose guards are theirs together (`ContactsWithFriction`).
-
-    `dt` is the env step; `t0` the episode's time at its start (the physics reads `t0 + t`).
     """
 
     kinds: eqx.AbstractClassVar[tuple[str, ...]]
     root_finder: ClassVar[type[optimistix.Bisection]] = TimeBisection
-    dt: eqx.AbstractVar[Scalar]
-    t0: eqx.AbstractVar[ScalarLike]
 
     @property
     @abc.abstractmethod
@@ -262,11 +258,12 @@ def integrate_hybrid(
     modes: AbstractModes,
     y0: State,
     u: Input,
+    dt: ScalarLike,
     *,
     velocity_indices: tuple[int, ...] | None = None,
     projection: Callable[[State], State] | None = None,
 ) -> tuple[State, dict[str, Array]]:
-    """Solve `modes` over `[0, modes.dt]` from `y0` with the input `u` held: the one hybrid loop.
+    """Solve `modes` over `[0, dt]` from `y0` with the input `u` held: the one hybrid loop.
 
     Segment by segment, at most `modes.max_events + 1`: settle (the reset of the guard that
     fired, or the mode read off the state), then solve in that mode up to the first located
@@ -284,7 +281,7 @@ def integrate_hybrid(
     `impacts`, and the time of the first, `first_impact_time` (`inf` when none), and each of
     the modes' checks by name.
     """
-    dt = jnp.asarray(modes.dt, y0.dtype)
+    dt = jnp.asarray(dt, y0.dtype)
     solve = segment_solver(
         integrator, modes.vector_field, velocity_indices, modes.condition, modes.dip, dt, root_finder=modes.root_finder
     )
@@ -334,7 +331,12 @@ def integrate_hybrid(
     # An event located at the step's very end is settled here.
     ended = jnp.any(fired)
     nothing = (y, tuple(zero for _ in kinds))
-    last = jax.lax.cond(eqxi.unvmap_any(ended), lambda: modes.settle(t, y, u, mode, fired)[:3:2], lambda: nothing)
+
+    def settle_last():
+        settled = modes.settle(t, y, u, mode, fired)
+        return settled.y, settled.events
+
+    last = jax.lax.cond(eqxi.unvmap_any(ended), settle_last, lambda: nothing)
     y = jnp.where(ended, last[0], y)
     events = tuple(jnp.where(ended, new, 0) for new in last[1])
     counts = tuple(count + new for count, new in zip(counts, events))

@@ -40,14 +40,6 @@ class ContactsWithFriction(AbstractModes):
     friction: FrictionModes
 
     @property
-    def dt(self):
-        return self.friction.dt
-
-    @property
-    def t0(self):
-        return self.friction.t0
-
-    @property
     def max_events(self) -> int:
         return self.surfaces.max_events + self.friction.max_events
 

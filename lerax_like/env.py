@@ -14,7 +14,7 @@ everything else calls: `rollout`, the Gymnasium layer, the studies.
 """
 
 import abc
-from typing import TYPE_CHECKING, Any, ClassVar, Generic, NamedTuple, TypeVar, cast, overload
+from typing import Any, ClassVar, Generic, NamedTuple, TypeVar, cast, overload
 
 import equinox as eqx
 import jax
@@ -263,7 +263,8 @@ class AbstractEnv(AbstractParametrised):
                 )
             else:
                 y, info = integrate_hybrid(
-                    self.integrator, modes, state.y, u, velocity_indices=physics.velocity_indices, projection=projection
+                    self.integrator, modes, state.y, u, self.dt, velocity_indices=physics.velocity_indices,
+                    projection=projection,
                 )
         y = jnp.where(info["solver_ok"], y, state.y)
         return EnvState(y=y, steps=state.steps + 1), info
@@ -280,10 +281,10 @@ class AbstractEnv(AbstractParametrised):
         contacts, friction, floor = getattr(self, "contacts", ()), getattr(self, "friction", ()), getattr(self, "floor", None)
         t0 = jnp.asarray(t0, self.dt.dtype)
         if floor is not None:
-            return FloorModes(dynamics=cast(Any, self.dynamics), floor=floor, dt=self.dt, t0=t0)
+            return FloorModes(dynamics=cast(Any, self.dynamics), floor=floor, t0=t0)
         surfaces = Surfaces(physics=self.physics, dynamics=self.dynamics, contacts=tuple(contacts), dt=self.dt, t0=t0)
         if friction:
-            stick_slip = FrictionModes(physics=self.physics, dynamics=self.dynamics, friction=friction[0], dt=self.dt, t0=t0)
+            stick_slip = FrictionModes(physics=self.physics, dynamics=self.dynamics, friction=friction[0], t0=t0)
             return ContactsWithFriction(surfaces=surfaces, friction=stick_slip) if contacts else stick_slip
         return surfaces if contacts else None
 

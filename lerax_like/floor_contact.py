@@ -41,7 +41,7 @@ from typing import ClassVar, final
 import jax.numpy as jnp
 
 from ._segments import AbstractModes, Settled
-from ._types import Array, Bool, Float, Input, Scalar, ScalarLike, State
+from ._types import Array, Bool, Float, Input, ScalarLike, State
 from .physics.rolling_disk import DiskFloor, RollingDiskDynamics
 
 
@@ -56,12 +56,7 @@ class FloorModes(AbstractModes):
 
     dynamics: RollingDiskDynamics
     floor: DiskFloor
-    dt: Scalar
     t0: ScalarLike = 0.0  # the episode's time at the step's start: the field reads `t0 + t`
-
-    @property
-    def max_events(self) -> int:
-        return self.floor.max_events
 
     def initial_mode(self, y: State):
         return jnp.zeros((), y.dtype), jnp.zeros((), y.dtype)
@@ -113,6 +108,10 @@ class FloorModes(AbstractModes):
         y = jnp.where(now_closed & at_rest, y.at[3].set(radius * y[5]), y)
         new_mode = (now_closed.astype(y.dtype), jnp.where(now_closed, new_s, 0.0).astype(y.dtype))
         return Settled(y, new_mode, (impact.astype(int), slip_fired.astype(int)), {})
+
+    @property
+    def max_events(self) -> int:
+        return self.floor.max_events
 
 
 __all__ = ["FloorModes"]

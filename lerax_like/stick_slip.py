@@ -43,7 +43,7 @@ import jax
 import jax.numpy as jnp
 
 from ._segments import AbstractModes, Settled
-from ._types import Array, Bool, Float, Input, Scalar, ScalarLike, State
+from ._types import Array, Bool, Float, Input, ScalarLike, State
 from .physics import AbstractDynamics
 from .physics.contact import with_coordinates
 from .physics.friction import AbstractCoulombFriction
@@ -82,7 +82,6 @@ class FrictionModes(AbstractModes):
     # `AbstractCoulombFriction.check` asks for), a chain's or a sliding block's.
     dynamics: Any
     friction: AbstractCoulombFriction
-    dt: Scalar
     t0: ScalarLike = 0.0  # the episode's time at the step's start: the field reads `t0 + t`
 
     @property

@@ -96,7 +96,7 @@ def _grazing(guarded: bool):
         integrator = ll.Integrator(integrator.solver, Unguarded(rtol=1e-6, atol=1e-9))
     y0 = jnp.array([wall - 0.5, 1.0, speed, 0.0])
     y, info = jax.jit(
-        lambda y0: integrate_hybrid(integrator, env.modes(), y0, u, velocity_indices=env.physics.velocity_indices)
+        lambda y0: integrate_hybrid(integrator, env.modes(), y0, u, env.dt, velocity_indices=env.physics.velocity_indices)
     )(y0)
     contact_time = (speed - math.sqrt(speed**2 - 2 * push * 0.5)) / push
     return y, info, contact_time, speed, push

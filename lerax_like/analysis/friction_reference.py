@@ -58,7 +58,7 @@ def friction_modes(env):
 
     from ..stick_slip import FrictionModes
 
-    modes = FrictionModes(physics=env.physics, dynamics=env.dynamics, friction=env.friction[0], dt=env.dt)
+    modes = FrictionModes(physics=env.physics, dynamics=env.dynamics, friction=env.friction[0])
     return jax.tree.map(lambda leaf: jnp.asarray(leaf, jnp.float64) if eqx.is_inexact_array(leaf) else leaf, modes)
 
 

@@ -15,12 +15,12 @@ from typing import ClassVar, final
 
 import equinox as eqx
 import jax.numpy as jnp
-import numpy as np
 
-from .._fields import NONNEGATIVE, POSITIVE, AbstractParametrised, concrete, option
+from .._fields import NONNEGATIVE, POSITIVE, AbstractParametrised, option
 from .._types import Array, Float, Input, Scalar, ScalarLike, State
 from ._base import AbstractConservativeDynamics
 from .contact import RESTITUTION
+from .friction import check_coulomb
 
 
 @final
@@ -105,14 +105,7 @@ class DiskFloor(AbstractParametrised):
     max_events: int = option(16, None)
 
     def __check_init__(self):
-        if isinstance(self.max_events, bool) or not isinstance(self.max_events, (int, np.integer)) or self.max_events < 1:
-            raise ValueError(f"max_events must be a positive integer, got {self.max_events!r}")
-        static, kinetic = concrete(self.static_friction), concrete(self.kinetic_friction)
-        if static is not None and kinetic is not None and np.any(kinetic > static):
-            raise ValueError(
-                f"DiskFloor: the kinetic friction coefficient must not exceed the static one "
-                f"(allowed range [0, static]), got kinetic {kinetic} > static {static}"
-            )
+        check_coulomb(self)
 
     def impact(self, dynamics: RollingDiskDynamics, y: State) -> State:
         """The state just after an impact of the disk at `y` (touching, `z_dot < 0`) on the floor.

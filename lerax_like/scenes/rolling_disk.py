@@ -4,17 +4,17 @@ import equinox as eqx
 import jax.numpy as jnp
 
 from .._fields import FINITE, NONNEGATIVE, POSITIVE
-from .._types import Array, Key, Scalar
-from ..env import EnvState, episode_limit
+from .._types import Array, Scalar
+from ..env import episode_limit
 from ..integrate import Integrator, make_integrator
 from ..physics.rolling_disk import DiskFloor, RollingDiskDynamics
 from ._registry import register_scene
-from ._unit_action import AbstractUnitActionEnv
+from ._unit_action import AbstractReachEnv
 
 
 @register_scene
 @final
-class RollingDisk(AbstractUnitActionEnv):
+class RollingDisk(AbstractReachEnv):
     """Roll a disk with a motor torque to a target position on a floor with friction, and hold it there.
 
     ## Description
@@ -75,11 +75,3 @@ class RollingDisk(AbstractUnitActionEnv):
         low = jnp.stack([zero - 0.05, radius, zero - 0.05, zero - 0.05, zero, zero - 0.5])
         high = jnp.stack([zero + 0.05, radius, zero + 0.05, zero + 0.05, zero, zero + 0.5])
         return low, high
-
-    def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
-        del state, key
-        return jnp.exp(-((next_state.y[0] - self.target) ** 2)) - self.action_cost * self.effort(action)
-
-    @property
-    def worst_reward(self) -> Scalar:
-        return -self.action_cost * jnp.ones((), self.dt.dtype)

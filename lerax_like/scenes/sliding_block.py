@@ -4,18 +4,18 @@ import equinox as eqx
 import jax.numpy as jnp
 
 from .._fields import FINITE, NONNEGATIVE, POSITIVE
-from .._types import Array, Key, Scalar
-from ..env import EnvState, episode_limit
+from .._types import Array, Scalar
+from ..env import episode_limit
 from ..integrate import Integrator, make_integrator
 from ..physics.friction import PlaneFriction
 from ..physics.sliding_block import PlaneEnd, SlidingBlockDynamics
 from ._registry import register_scene
-from ._unit_action import AbstractUnitActionEnv
+from ._unit_action import AbstractReachEnv
 
 
 @register_scene
 @final
-class SlidingBlock(AbstractUnitActionEnv):
+class SlidingBlock(AbstractReachEnv):
     """Push a block along an inclined plane with dry friction to a target position and hold it there.
 
     ## Description
@@ -74,11 +74,3 @@ class SlidingBlock(AbstractUnitActionEnv):
     @property
     def initial_bounds(self) -> tuple[Array, Array]:
         return jnp.full(2, -0.05, self.dt.dtype), jnp.full(2, 0.05, self.dt.dtype)
-
-    def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
-        del state, key
-        return jnp.exp(-((next_state.y[0] - self.target) ** 2)) - self.action_cost * self.effort(action)
-
-    @property
-    def worst_reward(self) -> Scalar:
-        return -self.action_cost * jnp.ones((), self.dt.dtype)
