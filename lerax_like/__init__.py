@@ -34,6 +34,7 @@ from .integrate import (
     solver_from_spec as solver_from_spec,
     unregister_solver as unregister_solver,
 )
+from ._segments import AbstractModes as AbstractModes, Settled as Settled, integrate_hybrid as integrate_hybrid
 from .physics import (
     AbstractChainDynamics as AbstractChainDynamics,
     AbstractConservativeDynamics as AbstractConservativeDynamics,
@@ -106,6 +107,7 @@ __all__ = [
     "AbstractDynamics",
     "AbstractEnv",
     "AbstractGeneralisedForce",
+    "AbstractModes",
     "AbstractUnitActionEnv",
     "Acrobot",
     "AcrobotDynamics",
@@ -123,6 +125,8 @@ __all__ = [
     "DoubleCartPole",
     "EndStops",
     "EnvState",
+    "integrate_hybrid",
+    "Settled",
     "FINITE",
     "ForcedDynamics",
     "gym",
