@@ -349,7 +349,8 @@ def integrate_hybrid(
         ok = ok & passed
     info = {"solver_ok": ok, "solver_steps": steps, "solver_rejected_steps": rejected, **checks}
     for kind, count, first in zip(modes.kinds, counts, firsts):
-        info |= {f"{kind}s": count, f"first_{kind}_time": first}
+        plural = kind + ("es" if kind.endswith(("s", "sh", "ch", "x")) else "s")  # impacts, switches
+        info |= {plural: count, f"first_{kind}_time": first}
     return y, info
 
 
