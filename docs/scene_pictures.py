@@ -55,6 +55,7 @@ RUNS = {
     "SimplestWalker": ({}, lambda s, k: np.array([0.0]), 120, 1),
     "CompassGait": ({}, lambda s, k: np.array([0.0]), 150, 2),
     "SlidingBlock": ({}, lambda s, k: np.array([1.0 if k < 20 else 0.0]), 80, 1),
+    "RollingDisk": ({}, lambda s, k: np.array([0.0 if k < 10 else 1.0]), 80, 1),
 }
 
 

@@ -1,22 +1,28 @@
-"""An env step solved segment by segment, each up to its first located event: what the impact
-step (`lerax_like.hybrid`) and the stick-slip step (`lerax_like.stick_slip`) share.
+"""The one hybrid core: an env step solved segment by segment, each up to its first located event.
 
-Each builds its vector field, event condition and what happens at an event; the solve of one
-segment (the term for the scene's solver, the step budget, the adjoint, the grazing guard on an
-adaptive step, an idle finished env of a batch), the scan over segments and the step's final
-checks are written here, once.
+A hybrid system is an `AbstractModes`: its discrete mode, the vector field of each mode, its
+guards (events) and its resets. Impacts (`lerax_like.hybrid.Surfaces`), Coulomb stick-slip
+(`lerax_like.stick_slip.FrictionModes`), both together (`lerax_like.contact_friction`) and a
+disk on a floor (`lerax_like.floor_contact`) are such systems, and `integrate_hybrid` is the
+one loop that integrates them all; the walkers' return map (`lerax_like.analysis.gait`)
+solves its stance phase with the same segment solve. Written here once: the solve of one
+segment (the term for the scene's solver, the step budget, the adjoint, the grazing guard on
+an adaptive step, an idle finished env of a batch), the located event, the scan over
+segments, the counts of events by kind and the step's final checks.
 """
 
+import abc
 from collections.abc import Callable
-from typing import Any, NamedTuple, final
+from typing import Any, ClassVar, NamedTuple, final
 
 import diffrax
+import equinox as eqx
 import equinox.internal as eqxi
 import jax
 import jax.numpy as jnp
 import optimistix
 
-from ._types import Array, BoolScalar, IntScalar, Scalar, State
+from ._types import Array, Bool, BoolScalar, Float, Input, IntScalar, Scalar, ScalarLike, State
 from .integrate import GuardedPIDController, Integrator, ProjectedODETerm, SemiImplicitEuler
 
 
@@ -75,9 +81,24 @@ def hermite_dip(g0, g1, m0, m1):
     return s, h00 * g0 + h10 * m0 + h01 * g1 + h11 * m1
 
 
+@final
+class TimeBisection(optimistix.Bisection):
+    """Bisection that stops when the bracket in time is within tolerance, whatever the condition's value.
+
+    `optimistix.Bisection` also asks `|condition| < atol`: a normal force of 10 N is
+    computed to about 1e-15 N, never below `atol` = 4 machine epsilons, and the root find
+    ran out of steps. The time bracket is what locates the switch.
+    """
+
+    def terminate(self, fn, y, args, options, state, tags):
+        del fn, args, options, tags
+        scale = self.atol + self.rtol * jnp.abs(y)
+        return jnp.abs(state.lower - state.upper) < scale, optimistix.RESULTS.successful
+
+
 class SegmentEnd(NamedTuple):
     """Where a segment ended: its state and time (the inputs, for an env already at `dt`), the
-    solve's result, whether it succeeded (an event ends a segment successfully), and its
+    solve's result, whether it succeeded (an event ends a segment successfully), its
     accepted and attempted steps (0 for an env already at `dt`)."""
 
     y: State
@@ -153,43 +174,194 @@ def segment_solver(
     return solve
 
 
-def scan_segments(solve_segment: Callable[[tuple], tuple], initial: tuple, segments: int, dt: Scalar) -> tuple:
-    """Run `solve_segment` on a carry whose second entry is the time, `segments` times; the
-    segments after every env's last one are skipped whole (`unvmap_any`: over a batch)."""
+class Settled(NamedTuple):
+    """What `AbstractModes.settle` returns: the state and mode the next segment starts from,
+    the events applied (one count per kind of `AbstractModes.kinds`), and the system's own
+    checks of the mode it chose (name -> passed; a failed one fails the step)."""
 
-    def segment(carry, _):
-        done = carry[1] >= dt
-        return jax.lax.cond(eqxi.unvmap_any(~done), solve_segment, lambda carry: carry, carry), None
-
-    final, _ = jax.lax.scan(segment, initial, None, length=segments)
-    return final
+    y: State
+    mode: Any
+    events: tuple[IntScalar, ...]
+    checks: dict[str, BoolScalar]
 
 
-def finish_step(
-    y: State,
-    t: Scalar,
-    ok: BoolScalar,
-    steps: IntScalar,
-    rejected: IntScalar,
-    dt: Scalar,
-    projection: Callable[[State], State] | None,
+class AbstractModes(eqx.Module):
+    """A hybrid system as `integrate_hybrid` integrates it: modes, guards and resets.
+
+    A mode is any PyTree of arrays (which contacts are closed, stick or slip, the sign of a
+    normal force, what a Zeno check remembers). Within a mode the state follows
+    `vector_field(t, y, (u, mode))`, and every entry of `guards(t, y, (u, mode))` is positive;
+    a segment ends at the first located zero of their minimum. At each segment's start,
+    `settle` applies the reset of the guard that fired (an impact map, a mode switch), or
+    reads the mode off the state at a step's start (no guard fired). Impacts, friction
+    switches and heel strikes are kinds of guard and reset; a scene that has several of
+    them is one `AbstractModes` whose guards are theirs together (`ContactsWithFriction`).
+    """
+
+    kinds: eqx.AbstractClassVar[tuple[str, ...]]
+    root_finder: ClassVar[type[optimistix.Bisection]] = TimeBisection
+
+    @property
+    @abc.abstractmethod
+    def max_events(self) -> int:
+        """At most this many located events in one env step."""
+
+    @abc.abstractmethod
+    def initial_mode(self, y: State) -> Any:
+        """A mode of the right structure, before the step's first `settle` reads the state."""
+
+    @abc.abstractmethod
+    def vector_field(self, t: ScalarLike, y: State, args) -> State: ...
+
+    @abc.abstractmethod
+    def guards(self, t: ScalarLike, y: State, args) -> Float[Array, " k"]:
+        """Positive within the mode; the first to fall through zero ends the segment."""
+
+    @abc.abstractmethod
+    def settle(self, t: ScalarLike, y: State, u: Input, mode, fired: Bool[Array, " k"]) -> Settled:
+        """The state and mode after the guard `fired` (all False at a step's start)."""
+
+    def condition(self, t, y: State, args, **kwargs) -> ScalarLike:
+        """The event's condition: the smallest guard, whose zero is the first of all of them."""
+        del kwargs
+        return jnp.min(self.guards(t, y, args))
+
+    def dip(self, t0, t1, y0: State, y1: State, args) -> ScalarLike:
+        """The step fraction where a guard's Hermite interpolant dips below zero and back (1 if none).
+
+        A guard positive at both ends of a trial step is no event to diffrax, however far it
+        fell between (a short lift-off, a load that touches its limit and falls back):
+        `GrazingGuardController` rejects such a step and retries it up to the dip, where the
+        sign change shows. The guards and their rates along the flow at both ends give the
+        cubic Hermite interpolant. Just after a reset a guard starts at zero, or a rounding
+        error below: if it rises and falls back below zero within the step (a hop shorter
+        than a step) no sign change shows either, and the step is retried up to its peak.
+        """
+        step = t1 - t0
+
+        def rates(t, y):
+            t = jnp.asarray(t, y.dtype)
+            return jax.jvp(lambda t, y: self.guards(t, y, args), (t, y), (jnp.ones_like(t), self.vector_field(t, y, args)))
+
+        (c0, rate0), (c1, rate1) = rates(t0, y0), rates(t1, y1)
+        s, lowest = hermite_dip(c0, c1, step * rate0, step * rate1)
+        hidden = (c0 > 0) & (c1 > 0) & (rate0 < 0) & (rate1 > 0) & (lowest < 0)
+        peak_at, negated_peak = hermite_dip(-c0, -c1, -step * rate0, -step * rate1)
+        returned = (c0 <= 0) & (c1 < 0) & (rate0 > 0) & (rate1 < 0) & (negated_peak < 0)
+        fraction = jnp.where(hidden, jnp.clip(s, 1e-3, 0.999), jnp.where(returned, jnp.clip(peak_at, 1e-3, 0.999), 1.0))
+        # A choice of step, as the controller's own: no gradient flows through it.
+        return jax.lax.stop_gradient(jnp.min(fraction))
+
+
+def integrate_hybrid(
+    integrator: Integrator,
+    modes: AbstractModes,
+    y0: State,
+    u: Input,
+    dt: ScalarLike,
+    *,
+    velocity_indices: tuple[int, ...] | None = None,
+    projection: Callable[[State], State] | None = None,
 ) -> tuple[State, dict[str, Array]]:
-    """The step's end state (projected, if the scene projects) and the info both steps give:
-    `solver_ok` (every segment solved, `dt` reached, all finite: events left over when the
-    budget ran out did not reach it), `solver_steps` and `solver_rejected_steps`."""
+    """Solve `modes` over `[0, dt]` from `y0` with the input `u` held: the one hybrid loop.
+
+    Segment by segment, at most `modes.max_events + 1`: settle (the reset of the guard that
+    fired, or the mode read off the state), then solve in that mode up to the first located
+    zero of a guard (`segment_solver`). Which guard fired is the one at zero where the event
+    was located: the minimum of the guards is the condition, so the event is the earliest
+    crossing of any of them. (A `diffrax.Event` given the guards as a tuple reports, of those
+    that changed sign within one solver step, the first in the tuple, not the first in time,
+    and locates that one: two guards crossing within one step of a fixed-step solver would
+    be taken in the wrong order and the earlier switch lost.) An event at the step's very
+    end is settled before the step returns, so that the next step reads an exact state.
+
+    The info holds `solver_ok` (every segment solved, `dt` reached within the segments, every
+    check of `settle` passed, all finite), `solver_steps`, `solver_rejected_steps` (summed
+    over segments), for each kind of event (`modes.kinds`, say "impact") the number applied,
+    `impacts`, and the time of the first, `first_impact_time` (`inf` when none), and each of
+    the modes' checks by name.
+    """
+    dt = jnp.asarray(dt, y0.dtype)
+    solve = segment_solver(
+        integrator, modes.vector_field, velocity_indices, modes.condition, modes.dip, dt, root_finder=modes.root_finder
+    )
+    no_event = jnp.zeros(jax.eval_shape(lambda y: modes.guards(0.0, y, (u, modes.initial_mode(y))), y0).shape, bool)
+
+    def segment(carry):
+        y, t, mode, fired, ok, checks, steps, rejected, counts, firsts = carry
+        done = t >= dt
+        settled = modes.settle(t, y, u, mode, fired)
+        y = jnp.where(done, y, settled.y)
+        mode = jax.tree.map(lambda new, old: jnp.where(done, old, new), settled.mode, mode)
+        events = tuple(jnp.where(done, 0, count) for count in settled.events)
+        end = solve(y, t, (u, mode))
+        event = (end.result == diffrax.RESULTS.event_occurred) & ~done
+        fired = event & (jnp.arange(no_event.shape[0]) == jnp.argmin(modes.guards(end.t, end.y, (u, mode))))
+        return (
+            end.y,
+            end.t,
+            mode,
+            fired,
+            ok & (done | end.solved),
+            {name: checks[name] & (done | passed) for name, passed in settled.checks.items()},
+            steps + end.accepted,
+            rejected + end.tried - end.accepted,
+            tuple(count + new for count, new in zip(counts, events)),
+            tuple(jnp.where((new > 0) & (first == jnp.inf), t, first) for first, new in zip(firsts, events)),
+        )
+
+    def skip_done(carry, _):
+        # The segments after every env's last one are skipped whole (`unvmap_any`: over a batch).
+        return jax.lax.cond(eqxi.unvmap_any(carry[1] < dt), checkpointed, lambda carry: carry, carry), None
+
+    # Reverse mode keeps each segment's start only and recomputes the segment on the way back:
+    # otherwise it stores the internals (solver checkpoints, event search) of all
+    # `max_events + 1` segments, used or not. Values and gradients are unchanged.
+    checkpointed = jax.checkpoint(segment, prevent_cse=False)
+    zero, never = jnp.zeros((), int), jnp.asarray(jnp.inf, y0.dtype)
+    mode = modes.initial_mode(y0)
+    checks = {name: jnp.asarray(True) for name in jax.eval_shape(lambda: modes.settle(0.0, y0, u, mode, no_event)).checks}
+    kinds = range(len(modes.kinds))
+    initial = (
+        y0, jnp.zeros((), y0.dtype), mode, no_event, jnp.asarray(True), checks, zero, zero,
+        tuple(zero for _ in kinds), tuple(never for _ in kinds),
+    )
+    final, _ = jax.lax.scan(skip_done, initial, None, length=modes.max_events + 1)
+    y, t, mode, fired, ok, checks, steps, rejected, counts, firsts = final
+    # An event located at the step's very end is settled here.
+    ended = jnp.any(fired)
+    nothing = (y, tuple(zero for _ in kinds))
+
+    def settle_last():
+        settled = modes.settle(t, y, u, mode, fired)
+        return settled.y, settled.events
+
+    last = jax.lax.cond(eqxi.unvmap_any(ended), settle_last, lambda: nothing)
+    y = jnp.where(ended, last[0], y)
+    events = tuple(jnp.where(ended, new, 0) for new in last[1])
+    counts = tuple(count + new for count, new in zip(counts, events))
+    firsts = tuple(jnp.where((new > 0) & (first == jnp.inf), t, first) for first, new in zip(firsts, events))
     finite = jnp.all(jnp.isfinite(y))
     if projection is not None:
         y = projection(y)
     ok = ok & (t >= dt) & finite & jnp.all(jnp.isfinite(y))
-    return y, {"solver_ok": ok, "solver_steps": steps, "solver_rejected_steps": rejected}
+    for passed in checks.values():
+        ok = ok & passed
+    info = {"solver_ok": ok, "solver_steps": steps, "solver_rejected_steps": rejected, **checks}
+    for kind, count, first in zip(modes.kinds, counts, firsts):
+        plural = kind + ("es" if kind.endswith(("s", "sh", "ch", "x")) else "s")  # impacts, switches
+        info |= {plural: count, f"first_{kind}_time": first}
+    return y, info
 
 
 __all__ = [
     "IDLE_FRACTION",
+    "AbstractModes",
     "GrazingGuardController",
     "SegmentEnd",
-    "finish_step",
+    "Settled",
+    "TimeBisection",
     "hermite_dip",
-    "scan_segments",
+    "integrate_hybrid",
     "segment_solver",
 ]

@@ -14,7 +14,7 @@ everything else calls: `rollout`, the Gymnasium layer, the studies.
 """
 
 import abc
-from typing import TYPE_CHECKING, Any, ClassVar, Generic, NamedTuple, TypeVar, overload
+from typing import Any, ClassVar, Generic, NamedTuple, TypeVar, cast, overload
 
 import equinox as eqx
 import jax
@@ -24,10 +24,15 @@ import jax.random as jr
 from ._episode import episode_limit, episode_time
 from ._fields import AbstractParametrised, concrete
 from ._random import uniform
-from ._types import Array, ArrayLike, BoolScalar, Float, Input, IntScalar, Key, Scalar, State
+from ._segments import AbstractModes, integrate_hybrid
+from ._types import Array, ArrayLike, BoolScalar, Float, Input, IntScalar, Key, Scalar, ScalarLike, State
+from .contact_friction import ContactsWithFriction
+from .floor_contact import FloorModes
+from .hybrid import Surfaces
 from .integrate import Integrator, forward_mode_hint
 from .physics import AbstractChainDynamics, AbstractDynamics
 from .spaces import AbstractSpace, Box, eager_spaces
+from .stick_slip import FrictionModes
 
 
 class EnvState(eqx.Module):
@@ -125,13 +130,8 @@ class AbstractEnv(AbstractParametrised):
         friction = getattr(self, "friction", ())
         for addon in friction:
             addon.check(self.dynamics)
-        if len(friction) > 1:
+        if len(friction) > 1:  # friction beside located contacts is one loop: `lerax_like.contact_friction`
             raise ValueError(f"{type(self).__name__} takes at most one friction add-on, got {len(friction)}")
-        if friction and getattr(self, "contacts", ()):
-            raise ValueError(
-                f"{type(self).__name__}: Coulomb friction and located contacts (restitution, walls) cannot be "
-                "combined yet; give either the friction keywords or the contact ones"
-            )
 
     def __init_subclass__(cls, **keywords):
         super().__init_subclass__(**keywords)
@@ -239,12 +239,12 @@ class AbstractEnv(AbstractParametrised):
         The end state is projected by `project` (if the scene overrides it); with
         `SemiImplicitEuler`, the state after the velocity update is projected too.
 
-        A scene with contacts (a field `contacts` of `lerax_like.physics.contact` add-ons)
-        is integrated segment by segment with its impacts located as events
-        (`lerax_like.hybrid`); its info also holds `impacts` and `first_impact_time`. A
-        scene with Coulomb friction (a field `friction`, `lerax_like.physics.friction`) is
-        integrated mode by mode, stick and slip, its switches located (`lerax_like.stick_slip`);
-        its info also holds `switches`, `first_switch_time` and `friction_consistent`.
+        A hybrid scene (`modes`: contacts, Coulomb friction, both, a disk's floor) is
+        integrated by the one hybrid loop (`lerax_like._segments.integrate_hybrid`), segment
+        by segment, its impacts and stick-slip switches located as events; its info also
+        holds, for each kind of event, how many (`impacts`, `switches`) and the time of the
+        first (`first_impact_time`, `first_switch_time`), and the modes' checks
+        (`friction_consistent`).
 
         The info holds `solver_ok`, `solver_steps` and `solver_rejected_steps`. A failed
         solve (non-finite state, exhausted step budget) keeps the pre-step state, so that
@@ -252,32 +252,41 @@ class AbstractEnv(AbstractParametrised):
         action cannot express (a zero force on `CartPole`).
         """
         physics = self.physics
-        contacts = getattr(self, "contacts", ())
         t0 = episode_time(state.steps, self.dt)
         projection = self.project if self.projects_state() else None
-        friction = getattr(self, "friction", ())
+        modes = self.modes(t0)
         with forward_mode_hint(self.integrator.adjoint):
-            if friction:
-                from .stick_slip import integrate_with_friction
-
-                y, info = integrate_with_friction(
-                    self.integrator, physics, self.dynamics, friction[0], state.y, u, self.dt,
-                    projection=projection, t0=t0,
-                )
-            elif contacts:
-                from .hybrid import integrate_with_contacts
-
-                y, info = integrate_with_contacts(
-                    self.integrator, physics, self.dynamics, contacts, state.y, u, self.dt,
-                    projection=projection, t0=t0,
-                )
-            else:
+            if modes is None:
                 y, info = self.integrator.integrate(
                     physics.vector_field, state.y, u, self.dt, projection=projection,
                     velocity_indices=physics.velocity_indices, t0=t0,
                 )
+            else:
+                y, info = integrate_hybrid(
+                    self.integrator, modes, state.y, u, self.dt, velocity_indices=physics.velocity_indices,
+                    projection=projection,
+                )
         y = jnp.where(info["solver_ok"], y, state.y)
         return EnvState(y=y, steps=state.steps + 1), info
+
+    def modes(self, t0: ScalarLike = 0.0) -> AbstractModes | None:
+        """The scene as a hybrid system (`lerax_like._segments.AbstractModes`), its physics read
+        at the episode's time `t0` plus the step's; None for a smooth scene.
+
+        Contacts (a field `contacts`, `lerax_like.physics.contact`): `Surfaces`, impacts located.
+        Coulomb friction (a field `friction`, `lerax_like.physics.friction`): `FrictionModes`,
+        stick and slip. Both: `ContactsWithFriction`. A disk's floor (a field `floor`,
+        `lerax_like.physics.rolling_disk.DiskFloor`): `FloorModes`.
+        """
+        contacts, friction, floor = getattr(self, "contacts", ()), getattr(self, "friction", ()), getattr(self, "floor", None)
+        t0 = jnp.asarray(t0, self.dt.dtype)
+        if floor is not None:
+            return FloorModes(dynamics=cast(Any, self.dynamics), floor=floor, t0=t0)
+        surfaces = Surfaces(physics=self.physics, dynamics=self.dynamics, contacts=tuple(contacts), dt=self.dt, t0=t0)
+        if friction:
+            stick_slip = FrictionModes(physics=self.physics, dynamics=self.dynamics, friction=friction[0], t0=t0)
+            return ContactsWithFriction(surfaces=surfaces, friction=stick_slip) if contacts else stick_slip
+        return surfaces if contacts else None
 
     def check_state(self, state: EnvState) -> None:
         """Refuse, by name, a state whose shape does not fit the scene (at trace time)."""

@@ -1,10 +1,12 @@
 """One env step of a scene with contacts: integrate segment by segment, impacts located as events.
 
-`integrate_with_contacts` integrates over `[0, dt]` with the scene's `Integrator` (its solver,
-step-size controller, step budget and adjoint) up to the first located zero of a contact's gap
-(a `diffrax.Event` with a real-valued condition, located by bisection), applies the contact's
-map there and goes on from that time, until `dt`. `AbstractEnv.evolve` calls it when the scene
-has contacts (`lerax_like.physics.contact`). Every trap of a hybrid solve is handled here:
+`Surfaces` is a scene's contacts (`lerax_like.physics.contact`) as a hybrid system of the one
+loop (`lerax_like._segments.integrate_hybrid`): it integrates over `[0, dt]` with the scene's
+`Integrator` (its solver, step-size controller, step budget and adjoint) up to the first
+located zero of a contact's gap (a `diffrax.Event` with a real-valued condition, located by
+bisection), applies the contact's map there and goes on from that time, until `dt`.
+`AbstractEnv.evolve` integrates it when the scene has contacts. Every trap of a hybrid solve
+is handled here:
 
 - A state just after an impact sits on the surface (gap about 0, either sign): diffrax's sign
   test would miss a return within one step (a cart pressed into a wall by its controller ended
@@ -40,17 +42,15 @@ The info holds `solver_ok`, `solver_steps`, `solver_rejected_steps` (summed over
 within the step, `inf` when none).
 """
 
-from collections.abc import Callable, Sequence
-from typing import final
+from typing import ClassVar, final
 
-import equinox as eqx
 import equinox.internal as eqxi
 import jax
 import jax.numpy as jnp
+import optimistix
 
-from ._segments import GrazingGuardController, finish_step, hermite_dip, scan_segments, segment_solver
-from ._types import Array, Bool, Float, Input, ScalarLike, State
-from .integrate import Integrator
+from ._segments import AbstractModes, Settled, hermite_dip
+from ._types import Array, Bool, Float, Input, Scalar, ScalarLike, State
 from .physics import AbstractDynamics
 from .physics.contact import AbstractContact, AbstractImpulseContact, MechanicalDynamics, with_coordinates
 
@@ -66,17 +66,36 @@ ZENO_FRACTION = 2.0**-30
 
 
 @final
-class _Surfaces(eqx.Module):
+class Surfaces(AbstractModes):
     """The scene's contacts seen as one list of surfaces: gaps, rates, maps, rest.
 
-    Times `t` are the solve's, from the env step's start; the physics is read at the
-    episode's time `t0 + t`, as `Integrator.integrate` reads it (`EpisodeTime`).
+    Its mode is `(resting, touched, touched_at)`: which surfaces rest (a constraint whose
+    force is computed from the dynamics), and which were touched at the last segment start
+    that touched any, and when (the Zeno check, `ZENO_FRACTION`). Times `t` are the solve's,
+    from the env step's start; the physics is read at the episode's time `t0 + t`, as
+    `Integrator.integrate` reads it (`EpisodeTime`). `physics` is what is integrated (the
+    dynamics with any force add-ons); `dynamics` the scene's own physics module, whose
+    `coordinates` and `energy` the contacts read.
     """
+
+    kinds: ClassVar[tuple[str, ...]] = ("impact",)
+    # Gaps are located to a few machine epsilons in value as well as in time.
+    root_finder: ClassVar[type[optimistix.Bisection]] = optimistix.Bisection
 
     physics: AbstractDynamics
     dynamics: AbstractDynamics
     contacts: tuple[AbstractContact, ...]
-    t0: ScalarLike
+    dt: Scalar
+    t0: ScalarLike = 0.0
+
+    @property
+    def max_events(self) -> int:
+        """Impacts and releases in one env step: the contacts' largest `max_events`."""
+        return max(contact.max_events for contact in self.contacts)
+
+    def initial_mode(self, y: State):
+        free = jnp.zeros_like(self.gaps(y), dtype=bool)
+        return free, free, jnp.asarray(-jnp.inf, y.dtype)
 
     def gaps(self, y: State) -> Float[Array, " k"]:
         return jnp.concatenate([contact.gaps(self.dynamics, y) for contact in self.contacts])
@@ -86,7 +105,7 @@ class _Surfaces(eqx.Module):
 
     def vector_field(self, t: ScalarLike, y: State, args) -> State:
         """The physics, with the resting surfaces' constraint forces added."""
-        u, resting = args
+        u, (resting, _, _) = args
         derivative = self.physics.vector_field(self.t0 + t, y, u)
         # `unvmap_any`: true if any env of a vmapped batch rests, so that a batch in which
         # none does skips the constraint (a `cond` on a batched predicate runs both branches).
@@ -131,16 +150,14 @@ class _Surfaces(eqx.Module):
         """The gaps and their time derivatives along the flow."""
         return jax.jvp(self.gaps, (y,), (self.vector_field(t, y, args),))
 
-    def condition(self, t, y: State, args, **kwargs) -> ScalarLike:
+    def guards(self, t, y: State, args) -> Float[Array, " k"]:
         """Positive between events: the free surfaces' gaps and the resting ones' forces."""
-        del kwargs
-        u, resting = args
-        value = jnp.where(resting, self.forces(t, y, u, resting), self.gaps(y))
-        return jnp.min(value)
+        u, (resting, _, _) = args
+        return jnp.where(resting, self.forces(t, y, u, resting), self.gaps(y))
 
-    def guard(self, t0, t1, y0: State, y1: State, args):
+    def dip(self, t0, t1, y0: State, y1: State, args):
         """The step fraction where a free gap's Hermite interpolant dips below zero (1 if none)."""
-        _, resting = args
+        _, (resting, _, _) = args
         step = t1 - t0
         g0, rate0 = self.rates(t0, y0, args)
         g1, rate1 = self.rates(t1, y1, args)
@@ -157,7 +174,18 @@ class _Surfaces(eqx.Module):
         q, _ = self.mechanics.coordinates(y) if self._mechanical else (y, None)
         return 64 * jnp.finfo(y.dtype).eps * (1 + jnp.max(jnp.abs(q)))
 
-    def settle(self, t, y: State, u: Input, again: Bool[Array, " k"]):
+    def settle(self, t, y: State, u: Input, mode, fired) -> Settled:
+        """At a segment's start `t`: impacts, rest and release, and the re-placement just off the
+        surfaces, read off the state whatever fired (`touch`); counts the impacts."""
+        del fired
+        _, touched, touched_at = mode
+        again = touched & (t - touched_at <= ZENO_FRACTION * self.dt)
+        y, resting, hit, touching = self.touch(t, y, u, again)
+        touched_at = jnp.where(jnp.any(touching), t, touched_at)
+        touched = jnp.where(jnp.any(touching), touching, touched)
+        return Settled(y, (resting, touched, touched_at), (jnp.sum(hit, dtype=int),), {})
+
+    def touch(self, t, y: State, u: Input, again: Bool[Array, " k"]):
         """At a segment's start `t`: impacts, rest and release, and the re-placement just off the surfaces.
 
         `again` marks the surfaces touched at a segment start within `ZENO_FRACTION` of `dt`
@@ -233,72 +261,4 @@ class _Surfaces(eqx.Module):
         return any(isinstance(contact, AbstractImpulseContact) for contact in self.contacts)
 
 
-def integrate_with_contacts(
-    integrator: Integrator,
-    physics: AbstractDynamics,
-    dynamics: AbstractDynamics,
-    contacts: Sequence[AbstractContact],
-    y0: State,
-    u: Input,
-    dt: ScalarLike,
-    *,
-    projection: Callable[[State], State] | None = None,
-    t0: ScalarLike = 0.0,
-) -> tuple[State, dict[str, Array]]:
-    """Solve over `[0, dt]` from `y0` with the impacts of `contacts` located as events (module docstring).
-
-    `physics` is what is integrated (the dynamics with any force add-ons); `dynamics` the
-    scene's own physics module, whose `coordinates` and `energy` the contacts read. The
-    physics is read at the episode's time, `t0` plus the solve's (as `Integrator.integrate`).
-    """
-    max_events = max(contact.max_events for contact in contacts)
-    dtype = y0.dtype
-    dt = jnp.asarray(dt, dtype=dtype)
-    surfaces = _Surfaces(physics=physics, dynamics=dynamics, contacts=tuple(contacts), t0=jnp.asarray(t0, dtype=dtype))
-    solve = segment_solver(integrator, surfaces.vector_field, physics.velocity_indices, surfaces.condition, surfaces.guard, dt)
-
-    def solve_segment(carry):
-        y, t, resting, ok, steps, rejected, impacts, first, touched, touched_at = carry
-        done = t >= dt
-        again = touched & (t - touched_at <= ZENO_FRACTION * dt)
-        settled, new_resting, hit, touching = surfaces.settle(t, y, u, again)
-        y = jnp.where(done, y, settled)
-        resting = jnp.where(done, resting, new_resting)
-        hit = hit & ~done
-        hits = jnp.sum(hit, dtype=int)
-        first = jnp.where((hits > 0) & (first == jnp.inf), t, first)
-        touching = touching & ~done
-        touched_at = jnp.where(jnp.any(touching), t, touched_at)
-        touched = jnp.where(jnp.any(touching), touching, touched)
-        end = solve(y, t, (u, resting))
-        carry = (
-            end.y,
-            end.t,
-            resting,
-            ok & (done | end.solved),
-            steps + end.accepted,
-            rejected + end.tried - end.accepted,
-            impacts + hits,
-            first,
-            touched,
-            touched_at,
-        )
-        return carry
-
-    # Reverse mode keeps each segment's start only and recomputes the segment on the way back:
-    # otherwise it stores the internals (solver checkpoints, event search) of all
-    # `max_events + 1` segments, used or not. Values and gradients are unchanged.
-    checkpointed_segment = jax.checkpoint(solve_segment, prevent_cse=False)
-    resting = jnp.zeros_like(surfaces.gaps(y0), dtype=bool)
-    zero = jnp.zeros((), dtype=int)
-    never = jnp.asarray(-jnp.inf, dtype)
-    initial = (
-        y0, jnp.zeros((), dtype), resting, jnp.asarray(True), zero, zero, zero, jnp.asarray(jnp.inf, dtype),
-        jnp.zeros_like(resting), never,
-    )
-    y, t, _, ok, steps, rejected, impacts, first, _, _ = scan_segments(checkpointed_segment, initial, max_events + 1, dt)
-    y, info = finish_step(y, t, ok, steps, rejected, dt, projection)
-    return y, info | {"impacts": impacts, "first_impact_time": first}
-
-
-__all__ = ["GrazingGuardController", "integrate_with_contacts"]
+__all__ = ["Surfaces"]

@@ -1,15 +1,16 @@
 """One env step of a scene with Coulomb friction: stick and slip integrated as modes, switches located.
 
-`integrate_with_friction` integrates over `[0, dt]` with the scene's `Integrator` segment by
-segment, each segment in one mode of the friction add-on (`lerax_like.physics.friction`):
+`FrictionModes` is the friction add-on (`lerax_like.physics.friction`) as a hybrid system of the
+one loop (`lerax_like._segments.integrate_hybrid`), which integrates over `[0, dt]` with the
+scene's `Integrator` segment by segment, each segment in one mode:
 
 - mode `(s, sigma)`: `s = +1` or `-1` slipping in that direction, `s = 0` sticking; `sigma`
   the sign of the normal force `N`, which `|N|` follows (Florian's correction).
 - slip: the friction force is `-mu_k sigma s N`, solved with `N` (affine in it); stick: the
   sliding coordinate's rate and acceleration are exactly zero, so a block at rest under a
   sub-threshold load stays at rest to the last bit for any horizon (no creep, no chatter).
-- a segment ends at the first located zero (`diffrax.Event`, bisection as for impacts,
-  `lerax_like.hybrid`) of: the slip speed `s q_k_dot` (slip ends), `sigma N` (the normal
+- a segment ends at the first located zero of its guards (`diffrax.Event`, bisection as for
+  impacts, `lerax_like.hybrid`): the slip speed `s q_k_dot` (slip ends), `sigma N` (the normal
   force changes sign), `mu_s |N| - |f|` (a stick's force reaches its limit: release), and
   `1 + mu_k sigma s dN/df` (slip becomes inconsistent, Painleve's case).
 - the next segment's mode: after a slip ends, stick if the holding force is within
@@ -19,7 +20,7 @@ segment, each segment in one mode of the friction add-on (`lerax_like.physics.fr
 
 With an adaptive controller, a trial step over which a condition dips below zero and back
 (or rises from a switch and falls back) is rejected and retried up to the dip or the peak
-(`FrictionModes.guard`, the impacts' `GrazingGuardController`), so a short lift-off is located.
+(`AbstractModes.dip`, the impacts' `GrazingGuardController`), so a short lift-off is located.
 
 Every condition is read where it starts at zero or above and rises after a switch, and
 diffrax's falling-direction test (`direction=False`) never fires on such a start. A step
@@ -36,39 +37,19 @@ The info holds `solver_ok`, `solver_steps`, `solver_rejected_steps`, `switches` 
 this step), `first_switch_time` (`inf` when none) and `friction_consistent`.
 """
 
-from collections.abc import Callable
-from typing import Any, NamedTuple, final
+from typing import Any, ClassVar, NamedTuple, final
 
-import diffrax
-import equinox as eqx
 import jax
 import jax.numpy as jnp
-import optimistix
 
-from ._segments import finish_step, hermite_dip, scan_segments, segment_solver
-from ._types import Array, Float, Input, ScalarLike, State
-from .integrate import Integrator
+from ._segments import AbstractModes, Settled
+from ._types import Array, Bool, Float, Input, ScalarLike, State
 from .physics import AbstractDynamics
 from .physics.contact import with_coordinates
 from .physics.friction import AbstractCoulombFriction
 
 
-@final
-class _TimeBisection(optimistix.Bisection):
-    """Bisection that stops when the bracket in time is within tolerance, whatever the condition's value.
-
-    `optimistix.Bisection` also asks `|condition| < atol`: a normal force of 10 N is
-    computed to about 1e-15 N, never below `atol` = 4 machine epsilons, and the root find
-    ran out of steps. The time bracket is what locates the switch.
-    """
-
-    def terminate(self, fn, y, args, options, state, tags):
-        del fn, args, options, tags
-        scale = self.atol + self.rtol * jnp.abs(y)
-        return jnp.abs(state.lower - state.upper) < scale, optimistix.RESULTS.successful
-
-
-# Which condition ended a segment (its index in `FrictionModes.conditions`).
+# Which guard ended a segment (its index in `FrictionModes.guards`).
 SLIP_ENDS, NORMAL_FLIPS, RELEASE, INCONSISTENT = range(4)
 
 
@@ -86,11 +67,15 @@ class _Forces(NamedTuple):
 
 
 @final
-class FrictionModes(eqx.Module):
-    """The friction's modes seen from the step: forces, vector field, conditions, switches.
+class FrictionModes(AbstractModes):
+    """The friction's modes seen from the step: forces, vector field, guards, switches.
 
     A mode is `(s, sigma)`, floats: `s` in {-1, 0, 1} (0: stick), `sigma` in {-1, 1}.
+    `physics` is the dynamics with any force add-ons (`ForcedDynamics`), whose generalised
+    force the friction adds to; `dynamics` the scene's own physics module.
     """
+
+    kinds: ClassVar[tuple[str, ...]] = ("switch",)
 
     physics: AbstractDynamics
     # Duck-typed: an `AbstractDynamics` with `coordinates` and `forced_vector_field` (what
@@ -98,6 +83,13 @@ class FrictionModes(eqx.Module):
     dynamics: Any
     friction: AbstractCoulombFriction
     t0: ScalarLike = 0.0  # the episode's time at the step's start: the field reads `t0 + t`
+
+    @property
+    def max_events(self) -> int:
+        return self.friction.max_events
+
+    def initial_mode(self, y: State):
+        return jnp.zeros((), y.dtype), jnp.ones((), y.dtype)
 
     def forces(self, t, y: State, u: Input, mode) -> _Forces:
         s, sigma = mode
@@ -137,7 +129,7 @@ class FrictionModes(eqx.Module):
         )
         return jnp.where(stick, held, derivative)
 
-    def conditions(self, t, y: State, args) -> Float[Array, " 4"]:
+    def guards(self, t, y: State, args) -> Float[Array, " 4"]:
         """Positive within the mode; the first to fall through zero ends the segment (`SLIP_ENDS`, ...)."""
         u, (s, sigma) = args
         forces = self.forces(t, y, u, (s, sigma))
@@ -152,45 +144,14 @@ class FrictionModes(eqx.Module):
             jnp.where(slipping, forces.denominator, one),
         ])
 
-    def condition(self, t, y: State, args, **kwargs):
-        del kwargs
-        return jnp.min(self.conditions(t, y, args))
-
-    def guard(self, t0, t1, y0: State, y1: State, args):
-        """The step fraction where a condition's Hermite interpolant dips below zero and back (1 if none).
-
-        A condition positive at both ends of a trial step is no event to diffrax, however far it
-        fell between (a short lift-off of the cart, a load that touches `mu_s |N|` and falls
-        back): `GrazingGuardController` rejects such a step and retries it up to the dip, where
-        the sign change shows and the switch is located. Conditions and their rates along the
-        flow at both ends give the cubic Hermite interpolant, as for the impacts' gaps.
-        """
-        step = t1 - t0
-
-        def rates(t, y):
-            t = jnp.asarray(t, y.dtype)
-            return jax.jvp(lambda t, y: self.conditions(t, y, args), (t, y), (jnp.ones_like(t), self.vector_field(t, y, args)))
-
-        (c0, rate0), (c1, rate1) = rates(t0, y0), rates(t1, y1)
-        s, lowest = hermite_dip(c0, c1, step * rate0, step * rate1)
-        hidden = (c0 > 0) & (c1 > 0) & (rate0 < 0) & (rate1 > 0) & (lowest < 0)
-        # Just after a switch its condition starts at zero, or a rounding error below: if it
-        # rises and falls back below zero within the step (a lift-off shorter than a step),
-        # no sign change shows either. The step is retried up to its peak, from where the
-        # fall is an event.
-        peak_at, negated_peak = hermite_dip(-c0, -c1, -step * rate0, -step * rate1)
-        returned = (c0 <= 0) & (c1 < 0) & (rate0 > 0) & (rate1 < 0) & (negated_peak < 0)
-        fraction = jnp.where(hidden, jnp.clip(s, 1e-3, 0.999), jnp.where(returned, jnp.clip(peak_at, 1e-3, 0.999), 1.0))
-        # A choice of step, as the controller's own: no gradient flows through it.
-        return jax.lax.stop_gradient(jnp.min(fraction))
-
-    def settle(self, t, y: State, u: Input, mode, ended: Array, which: Array):
+    def settle(self, t, y: State, u: Input, mode, fired: Bool[Array, " 4"]) -> Settled:
         """The next segment's state and mode, and whether its slip is consistent.
 
-        After a segment that `ended` on the switch `which`, the switch's rule; at a step's
+        After a segment that ended on the switch that `fired`, the switch's rule; at a step's
         start, the mode read off the state: moving is slipping that way, at rest is held if
         it can be, else slipping in the direction of the load.
         """
+        ended = jnp.any(fired)
         s, sigma = mode
         k = self.friction.coordinate
         forces = self.forces(t, y, u, mode)
@@ -202,10 +163,9 @@ class FrictionModes(eqx.Module):
         speed = self.dynamics.coordinates(y)[1][k]
         read_s = jnp.where(speed == 0, jnp.where(holds, 0.0, away), jnp.sign(speed))
         read_sigma = jnp.where(speed == 0, held_sign, free_sign)
-        stops = ended & (which == SLIP_ENDS)
-        released = ended & (which == RELEASE)
+        stops, released = fired[SLIP_ENDS], fired[RELEASE]
         new_s = jnp.where(stops, jnp.where(holds, 0.0, away), jnp.where(released, away, s))
-        new_sigma = jnp.where(stops | released, held_sign, jnp.where(ended & (which == NORMAL_FLIPS), -sigma, sigma))
+        new_sigma = jnp.where(stops | released, held_sign, jnp.where(fired[NORMAL_FLIPS], -sigma, sigma))
         new_s = jnp.where(ended, new_s, read_s)
         new_sigma = jnp.where(ended, new_sigma, read_sigma)
         # A slip that ends stops the coordinate exactly (it was located to a few ulps of zero).
@@ -213,63 +173,8 @@ class FrictionModes(eqx.Module):
         y = jnp.where(stops, with_coordinates(self.dynamics, y, velocities=rates.at[k].set(0.0)), y)
         # The new mode's slip must be consistent (Painleve), checked where it starts.
         denominator = self.forces(t, y, u, (new_s, new_sigma)).denominator
-        consistent = ((new_s == 0) | (denominator > 0)) & ~(ended & (which == INCONSISTENT))
-        return y, (new_s, new_sigma), consistent
+        consistent = ((new_s == 0) | (denominator > 0)) & ~fired[INCONSISTENT]
+        return Settled(y, (new_s, new_sigma), (ended.astype(int),), {"friction_consistent": consistent})
 
 
-def integrate_with_friction(
-    integrator: Integrator, physics: AbstractDynamics, dynamics: AbstractDynamics, friction: AbstractCoulombFriction,
-    y0: State, u: Input, dt: ScalarLike, *, projection: Callable[[State], State] | None = None, t0: ScalarLike = 0.0,
-) -> tuple[State, dict[str, Array]]:
-    """Solve over `[0, dt]` from `y0` with the friction's stick-slip switches located (module docstring);
-    the vector field reads the episode's time `t0 + s`.
-
-    `physics` is the dynamics with any force add-ons (`ForcedDynamics`), whose generalised
-    force the friction adds to; `dynamics` the scene's own physics module.
-    """
-    modes = FrictionModes(physics=physics, dynamics=dynamics, friction=friction, t0=t0)
-    dtype = y0.dtype
-    dt = jnp.asarray(dt, dtype=dtype)
-    solve = segment_solver(
-        integrator, modes.vector_field, physics.velocity_indices, modes.condition, modes.guard, dt,
-        root_finder=_TimeBisection,
-    )
-
-    def solve_segment(carry):
-        y, t, mode, ended, which, ok, consistent, steps, rejected, switches, first = carry
-        done = t >= dt
-        settled, new_mode, fits = modes.settle(t, y, u, mode, ended, which)
-        y = jnp.where(done, y, settled)
-        mode = jax.tree.map(lambda new, old: jnp.where(done, old, new), new_mode, mode)
-        consistent = consistent & (done | fits)
-        end = solve(y, t, (u, mode))
-        event_ended = (end.result == diffrax.RESULTS.event_occurred) & ~done
-        # The condition nearest zero at the event is the one that fell.
-        which = jnp.argmin(modes.conditions(end.t, end.y, (u, mode)))
-        return (
-            end.y,
-            end.t,
-            mode,
-            event_ended,
-            which,
-            ok & (done | end.solved),
-            consistent,
-            steps + end.accepted,
-            rejected + end.tried - end.accepted,
-            switches + event_ended.astype(int),
-            jnp.where(event_ended & (first == jnp.inf), end.t, first),
-        )
-
-    zero = jnp.zeros((), dtype=int)
-    mode = (jnp.zeros((), dtype), jnp.ones((), dtype))
-    initial = (
-        y0, jnp.zeros((), dtype), mode, jnp.asarray(False), zero, jnp.asarray(True), jnp.asarray(True),
-        zero, zero, zero, jnp.asarray(jnp.inf, dtype),
-    )
-    final = scan_segments(solve_segment, initial, friction.max_events + 1, dt)
-    y, t, _, _, _, ok, consistent, steps, rejected, switches, first = final
-    y, info = finish_step(y, t, ok & consistent, steps, rejected, dt, projection)
-    return y, info | {"switches": switches, "first_switch_time": first, "friction_consistent": consistent}
-
-
-__all__ = ["FrictionModes", "integrate_with_friction"]
+__all__ = ["FrictionModes"]

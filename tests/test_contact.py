@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 import lerax_like as ll
-from lerax_like.hybrid import integrate_with_contacts
+from lerax_like._segments import integrate_hybrid
 from lerax_like.physics.contact import mass_matrix
 
 
@@ -96,7 +96,7 @@ def _grazing(guarded: bool):
         integrator = ll.Integrator(integrator.solver, Unguarded(rtol=1e-6, atol=1e-9))
     y0 = jnp.array([wall - 0.5, 1.0, speed, 0.0])
     y, info = jax.jit(
-        lambda y0: integrate_with_contacts(integrator, env.physics, env.dynamics, env.contacts, y0, u, env.dt)
+        lambda y0: integrate_hybrid(integrator, env.modes(), y0, u, env.dt, velocity_indices=env.physics.velocity_indices)
     )(y0)
     contact_time = (speed - math.sqrt(speed**2 - 2 * push * 0.5)) / push
     return y, info, contact_time, speed, push

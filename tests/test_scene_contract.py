@@ -272,6 +272,14 @@ def test_energy_is_conserved_with_zero_input_where_claimed(name):
             # Dry friction dissipates: checked with its coefficients zero (tests/test_friction_block.py
             # checks a stop against its closed form).
             env = eqx.tree_at(lambda e: e.friction, env, replace_fn=lambda f: jax.tree.map(jnp.zeros_like, f))
+        if getattr(env, "floor", None) is not None:
+            # A disk's floor (RollingDisk) dissipates by friction and restitution: checked frictionless
+            # and elastic (tests/test_rolling_disk.py checks its impacts and its skid against closed forms).
+            env = eqx.tree_at(
+                lambda e: (e.floor.static_friction, e.floor.kinetic_friction, e.floor.restitution),
+                env, replace_fn=lambda p: jnp.zeros_like(p),
+            )
+            env = eqx.tree_at(lambda e: e.floor.restitution, env, replace_fn=jnp.ones_like)
         env = _tight(env)
         state, _, _ = env.reset(key=jr.key(0))
         zero = jnp.zeros_like(env.physical_input(_sample_action(env, jr.key(1))))

@@ -25,7 +25,7 @@ class FrictionStep(NamedTuple):
     """One env step of the reference: the state at its end, the located switches, the segments.
 
     `switches` holds `(time in the step, which condition fell)`, the condition's index in
-    `FrictionModes.conditions` (`SLIP_ENDS`, `NORMAL_FLIPS`, `RELEASE`, `INCONSISTENT`);
+    `FrictionModes.guards` (`SLIP_ENDS`, `NORMAL_FLIPS`, `RELEASE`, `INCONSISTENT`);
     `segments` each segment's `solve_ivp` solution (dense if asked).
     """
 
@@ -42,13 +42,13 @@ def _field(modes, t, y, u, mode):
 
 
 @eqx.filter_jit
-def _conditions(modes, t, y, u, mode):
-    return modes.conditions(t, y, (u, mode))
+def _guards(modes, t, y, u, mode):
+    return modes.guards(t, y, (u, mode))
 
 
 @eqx.filter_jit
-def _settle(modes, t, y, u, mode, ended, which):
-    return modes.settle(t, y, u, mode, ended, which)
+def _settle(modes, t, y, u, mode, fired):
+    return modes.settle(t, y, u, mode, fired)
 
 
 def friction_modes(env):
@@ -78,12 +78,12 @@ def friction_reference_step(
     modes = eqx.tree_at(lambda m: m.t0, modes, jnp.asarray(t0, jnp.float64))
     u = jnp.asarray(u, jnp.float64)
     y = jnp.asarray(y0, jnp.float64)
-    t, mode, ended, which = 0.0, (jnp.zeros(()), jnp.ones(())), False, 0
+    t, mode, fired = 0.0, (jnp.zeros(()), jnp.ones(())), np.zeros(4, bool)
     switches: list[tuple[float, int]] = []
     segments = []
     for _ in range(modes.friction.max_events + 1):
-        y, mode, consistent = _settle(modes, jnp.asarray(t), jnp.asarray(y), u, mode, jnp.asarray(ended), jnp.asarray(which))
-        if not bool(consistent):
+        y, mode, _, checks = _settle(modes, jnp.asarray(t), jnp.asarray(y), u, mode, jnp.asarray(fired))
+        if not bool(checks["friction_consistent"]):
             raise RuntimeError(f"friction reference: no consistent slip at t = {t0 + t} (Painleve)")
         # SciPy asks each event in turn at the same point: the four conditions, computed once.
         last: dict[tuple, np.ndarray] = {}
@@ -92,7 +92,7 @@ def friction_reference_step(
             key = (float(s), state.tobytes())
             if key not in last:
                 last.clear()
-                last[key] = np.asarray(_conditions(modes, s, state, u, mode))
+                last[key] = np.asarray(_guards(modes, s, state, u, mode))
             return last[key]
 
         events = []
@@ -114,7 +114,7 @@ def friction_reference_step(
             return FrictionStep(np.asarray(solution.y[:, -1]), switches, segments)
         t, which = min(hits)
         switches.append((t, which))
-        y, ended = solution.y_events[which][0], True
+        y, fired = solution.y_events[which][0], np.arange(4) == which
     raise RuntimeError(f"friction reference: more than {modes.friction.max_events} switches in the step at t0 = {t0}")
 
 

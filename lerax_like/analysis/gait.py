@@ -27,9 +27,10 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-import optimistix
 
+from .._segments import segment_solver
 from .._types import Array, Float, Scalar, State
+from ..integrate import Integrator
 from ..physics import AbstractDynamics, AbstractWalkerDynamics
 
 
@@ -79,7 +80,8 @@ def step_to_step(
     """The return map `P(y0)`: from `y0` (just after a heel strike) to just after the next heel strike.
 
     Integrated with `Dopri8` under a PID controller at `rtol`, `atol`, the heel strike
-    located by bisection to a few machine epsilons in time (as `lerax_like.hybrid` does).
+    located by the hybrid loop's segment solve (`lerax_like._segments.segment_solver`, the
+    solve every env step with contacts runs): bisection to a few machine epsilons in time.
     `ok` is False when no heel strike happens within `max_time` (the walker fell, or
     stood) or the solve failed. Differentiable in `y0` and in `dynamics` in forward mode
     (`jax.jacfwd`, `jax.jvp`).
@@ -94,22 +96,17 @@ def step_to_step(
     with `y(T + s) = y(T) + f s + (Df f) s**2 / 2`.
     """
     dtype = y0.dtype
-    tolerance = 4 * float(jnp.finfo(dtype).eps)
     zero_input = jnp.zeros((1,), dtype)
-    term = diffrax.ODETerm(lambda t, y, args: args.vector_field(t, y, zero_input))
-    event = diffrax.Event(
-        _condition, root_finder=optimistix.Bisection(rtol=tolerance, atol=tolerance, flip=True), direction=False
-    )
+    stance = lambda t, y, args: args.vector_field(t, y, zero_input)
     controller = diffrax.PIDController(rtol=rtol, atol=atol)
-    located = diffrax.diffeqsolve(
-        term, diffrax.Dopri8(), t0=0.0, t1=max_time, dt0=None, y0=jax.lax.stop_gradient(y0),
-        args=jax.lax.stop_gradient(dynamics), stepsize_controller=controller, max_steps=100_000, event=event, throw=False,
-    )
+    integrator = Integrator(diffrax.Dopri8(), controller, max_steps=100_000)
+    no_dip = lambda t0, t1, y0, y1, args: jnp.ones((), dtype)  # the stance has one heel strike, no grazing
+    solve = segment_solver(integrator, stance, None, _condition, no_dip, jnp.asarray(max_time, dtype))
+    located = solve(jax.lax.stop_gradient(y0), jnp.zeros((), dtype), jax.lax.stop_gradient(dynamics))
     ok = located.result == diffrax.RESULTS.event_occurred
-    assert located.ts is not None  # diffeqsolve's default SaveAt(t1=True)
-    time = jax.lax.stop_gradient(located.ts[-1])
+    time = jax.lax.stop_gradient(located.t)
     solution = diffrax.diffeqsolve(
-        term, diffrax.Dopri8(), t0=0.0, t1=time, dt0=None, y0=y0, args=dynamics,
+        diffrax.ODETerm(stance), diffrax.Dopri8(), t0=0.0, t1=time, dt0=None, y0=y0, args=dynamics,
         stepsize_controller=controller, max_steps=100_000, adjoint=diffrax.ForwardMode(), throw=False,
     )
     assert solution.ys is not None  # diffeqsolve's default SaveAt(t1=True)

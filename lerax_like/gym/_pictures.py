@@ -28,6 +28,7 @@ if TYPE_CHECKING:  # for the casts below only: each picture reads its own scene'
         PlanarQuadrotorDynamics,
         RimlessWheelDynamics,
         SimplestWalkerDynamics,
+        RollingDiskDynamics,
         SlidingBlockDynamics,
     )
     from ..scenes.bouncing_ball import BouncingBall
@@ -347,7 +348,32 @@ def sliding_block(scene: AbstractEnv, state: np.ndarray, action) -> np.ndarray:
     return canvas.image()
 
 
+def rolling_disk(scene: AbstractEnv, state: np.ndarray, action) -> np.ndarray:
+    """`RollingDiskDynamics`: the floor with a tick every metre, the disk with a spoke that shows
+    its angle (clockwise), the target, the motor's torque as an arrow along the floor."""
+    radius = value(cast("RollingDiskDynamics", scene.dynamics).radius)
+    x, z, angle = state[:3]
+    half = max(1.0, 6 * radius)
+    canvas = Canvas((x - half, x + half), (-0.25 * half, 1.25 * half))
+    far = 10.0 + abs(x) + half
+    canvas.rectangle((-far, -far), (far, 0.0), FAINT)
+    canvas.segment((-far, 0.0), (far, 0.0), 2.0, GROUND)
+    for mark in range(math.floor(x - half), math.floor(x + half) + 2):
+        canvas.segment((mark, 0.0), (mark, -0.04 * half), 2.0, GROUND)
+    target = getattr(scene, "target", None)
+    if target is not None:
+        canvas.ring((value(target), 0.0), 6.0, 2.0, TARGET)
+    pixels = max(radius * canvas.scale, 3.0)
+    canvas.disc((x, z), pixels, CART)
+    rim = (x + radius * math.sin(angle), z + radius * math.cos(angle))
+    canvas.segment((x, z), rim, 2.0, JOINT)
+    if action is not None:
+        torque = float(np.clip(np.asarray(action, dtype=np.float64), -1.0, 1.0).reshape(-1)[0])
+        arrow(canvas, (x, z + radius), (0.5 * torque, 0.0))
+    return canvas.image()
+
+
 __all__ = [
     "Canvas", "acrobot", "arrow", "bouncing_ball", "cart_chain", "cart_pole", "chain", "compass_gait", "mountain_car",
-    "n_link_pendulum", "pendulum", "planar_quadrotor", "rimless_wheel", "simplest_walker", "sliding_block", "value", "values", "van_der_pol",
+    "n_link_pendulum", "pendulum", "planar_quadrotor", "rimless_wheel", "rolling_disk", "simplest_walker", "sliding_block", "value", "values", "van_der_pol",
 ]

@@ -31,6 +31,7 @@ from ..physics import (
 )
 from ..physics.compass_gait import CompassGaitDynamics
 from ..physics.rimless_wheel import RimlessWheelDynamics
+from ..physics.rolling_disk import RollingDiskDynamics
 from ..physics.simplest_walker import SimplestWalkerDynamics
 from ..physics.sliding_block import SlidingBlockDynamics
 from ..scenes import SCENES
@@ -52,6 +53,7 @@ _RENDERERS: dict[type, Renderer] = {
     SimplestWalkerDynamics: pictures.simplest_walker,
     CompassGaitDynamics: pictures.compass_gait,
     SlidingBlockDynamics: pictures.sliding_block,
+    RollingDiskDynamics: pictures.rolling_disk,
     VanDerPolDynamics: pictures.van_der_pol,
     SCENES["BouncingBall"]: pictures.bouncing_ball,
 }

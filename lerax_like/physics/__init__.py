@@ -37,3 +37,4 @@ from .friction import (
     PlaneFriction as PlaneFriction,
 )
 from .sliding_block import SlidingBlockDynamics as SlidingBlockDynamics
+from .rolling_disk import DiskFloor as DiskFloor, RollingDiskDynamics as RollingDiskDynamics

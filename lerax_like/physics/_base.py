@@ -10,7 +10,7 @@ from .._types import Array, Float, Input, Scalar, ScalarLike, State
 class AbstractDynamics(AbstractParametrised):
     """Physics as a vector field `dy/dt = f(t, y, u)`.
 
-    Subclasses declare their physical parameters as fields (`parameter(default, range)`:
+    Subclasses declare their physical parameters as fields (`eqx.field(converter=RANGE)`:
     differentiable leaves, checked by name at construction) and implement `vector_field`.
     They know nothing of rewards, observations, action spaces or rendering: those belong
     to a scene.

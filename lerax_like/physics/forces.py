@@ -32,7 +32,7 @@ class AbstractGeneralisedForce(AbstractParametrised):
     Subclasses declare `conservative` (whether the force conserves energy, its potential
     energy included) and `requires_cart` (whether it acts on the cart's coordinate `x`,
     so that dynamics without a cart are refused), declare their parameters as fields
-    (`parameter(default, range)`: built by keyword, checked by name), and implement
+    (`eqx.field(default=..., converter=RANGE)`: converted and checked by name), and implement
     `generalised_force` and `potential_energy`.
     """
 

@@ -32,6 +32,19 @@ from ._base import AbstractDynamics, require_attributes
 from .contact import mass_matrix, with_coordinates
 
 
+def check_coulomb(owner) -> None:
+    """Refuse, naming it, a `max_events` that is no positive integer, and a kinetic friction
+    coefficient above the static one (`owner`'s `static_friction` and `kinetic_friction`)."""
+    if isinstance(owner.max_events, bool) or not isinstance(owner.max_events, (int, np.integer)) or owner.max_events < 1:
+        raise ValueError(f"max_events must be a positive integer, got {owner.max_events!r}")
+    static, kinetic = concrete(owner.static_friction), concrete(owner.kinetic_friction)
+    if static is not None and kinetic is not None and np.any(kinetic > static):
+        raise ValueError(
+            f"{type(owner).__name__}: the kinetic friction coefficient must not exceed the static one "
+            f"(allowed range [0, static]), got kinetic {kinetic} > static {static}"
+        )
+
+
 class AbstractCoulombFriction(AbstractParametrised):
     """Dry friction on one generalised coordinate, `coordinate` (an index into `q`).
 
@@ -64,14 +77,7 @@ class AbstractCoulombFriction(AbstractParametrised):
         require_attributes(self, dynamics, ("coordinates", "forced_vector_field"), purpose)
 
     def __check_init__(self):
-        if isinstance(self.max_events, bool) or not isinstance(self.max_events, (int, np.integer)) or self.max_events < 1:
-            raise ValueError(f"max_events must be a positive integer, got {self.max_events!r}")
-        static, kinetic = concrete(self.static_friction), concrete(self.kinetic_friction)
-        if static is not None and kinetic is not None and np.any(kinetic > static):
-            raise ValueError(
-                f"{type(self).__name__}: the kinetic friction coefficient must not exceed the static one "
-                f"(allowed range [0, static]), got kinetic {kinetic} > static {static}"
-            )
+        check_coulomb(self)
 
 
 @final

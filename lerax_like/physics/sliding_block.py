@@ -4,9 +4,10 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
-from .._fields import POSITIVE, Range
+from .._fields import FINITE, POSITIVE, Range
 from .._types import Array, Float, Input, Scalar, ScalarLike, State
 from ._base import AbstractConservativeDynamics
+from .contact import RESTITUTION, AbstractImpulseContact
 
 INCLINE = Range(
     "finite and in [0, pi/2) (allowed range [0, pi/2))",
@@ -46,3 +47,26 @@ class SlidingBlockDynamics(AbstractConservativeDynamics):
         """Kinetic plus gravitational potential energy (height `s sin(incline)`)."""
         position, velocity = y
         return 0.5 * self.mass * velocity**2 + self.mass * self.gravity * position * jnp.sin(self.incline)
+
+
+@final
+class PlaneEnd(AbstractImpulseContact):
+    """A wall across the plane at `plane_end` (m along it, the block below it), rigid.
+
+    Gap `plane_end - s`; the block rebounds with `restitution` `e` times its speed, and below
+    `min_rebound_speed` (m/s) it would rest against the wall. Beside `PlaneFriction` the two are
+    one located-event loop (`lerax_like.contact_friction`), which reports such a rest as a failed
+    step rather than model a block held against a wall by friction.
+    """
+
+    restitution: Scalar = eqx.field(converter=RESTITUTION, kw_only=True)
+    plane_end: Scalar = eqx.field(default=2.0, converter=FINITE)
+    min_rebound_speed: Scalar = eqx.field(default=1e-3, converter=POSITIVE)
+
+    def gaps(self, dynamics: SlidingBlockDynamics, y: State) -> Float[Array, " 1"]:
+        return jnp.stack([self.plane_end - dynamics.coordinates(y)[0][0]])
+
+    def check(self, dynamics) -> None:
+        super().check(dynamics)
+        if not hasattr(dynamics, "incline"):
+            raise ValueError(f"PlaneEnd stops a block on a plane, and {type(dynamics).__name__} has none")

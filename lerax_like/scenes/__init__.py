@@ -30,6 +30,7 @@ from .rimless_wheel import RimlessWheel as RimlessWheel
 from .simplest_walker import SimplestWalker as SimplestWalker
 from .compass_gait import CompassGait as CompassGait
 from .sliding_block import SlidingBlock as SlidingBlock
+from .rolling_disk import RollingDisk as RollingDisk
 from ._make import make as make
 
 __all__ = [
@@ -49,6 +50,7 @@ __all__ = [
     "Pendulum",
     "PlanarQuadrotor",
     "RimlessWheel",
+    "RollingDisk",
     "SimplestWalker",
     "SlidingBlock",
     "VanDerPol",

@@ -10,6 +10,7 @@ import dataclasses
 import difflib
 from typing import Any
 
+from .._fields import AbstractParametrised
 from ..env import AbstractEnv
 from ..integrate import make_integrator
 from ..physics.contact import AbstractContact
@@ -24,14 +25,25 @@ def _names(cls: type) -> set[str]:
     return {field.name for field in dataclasses.fields(cls) if field.init}
 
 
+def _parts(scene: type[AbstractEnv]) -> dict[str, Any]:
+    """The fields of `scene` that hold one parametrised part by default (its `dynamics`, a disk's
+    `floor`), with the factory that builds it."""
+    return {
+        field.name: field.default_factory
+        for field in dataclasses.fields(scene)
+        if field.init and field.default_factory is not dataclasses.MISSING
+        and isinstance(field.default_factory(), AbstractParametrised)
+    }
+
+
 def flat_keywords(scene: type[AbstractEnv]) -> dict[str, set[str]]:
-    """What `make` takes for `scene`, by where it goes: `"scene"` (its fields and aliases),
-    `"dynamics"` (its dynamics' parameters), `"integrator"` (the settings of
-    `make_integrator`) and one entry per add-on class (its parameters)."""
-    fields = {field.name: field for field in dataclasses.fields(scene) if field.init}
-    taken = {"scene": set(fields) | {alias for alias, _ in scene.aliases}}
-    if "dynamics" in fields and fields["dynamics"].default_factory is not dataclasses.MISSING:
-        taken["dynamics"] = _names(type(fields["dynamics"].default_factory())) - taken["scene"]
+    """What `make` takes for `scene`, by where it goes: `"scene"` (its fields and aliases), each
+    part by its field's name (`"dynamics"`: its dynamics' parameters), `"integrator"` (the
+    settings of `make_integrator`) and one entry per add-on class (its parameters)."""
+    fields = {field.name for field in dataclasses.fields(scene) if field.init}
+    taken = {"scene": fields | {alias for alias, _ in scene.aliases}}
+    for name, factory in _parts(scene).items():
+        taken[name] = _names(type(factory())) - taken["scene"]
     if "integrator" in fields:
         taken["integrator"] = set(INTEGRATOR_KEYWORDS)
     for addon in scene.addons:
@@ -77,12 +89,12 @@ def make(scene: str | type[AbstractEnv], /, **keywords: Any) -> AbstractEnv:
         if alias in keywords:
             keywords[name] = keywords.pop(alias)
     fields = {field.name: field for field in dataclasses.fields(cls)}
-    flat = {name: keywords.pop(name) for name in list(keywords) if name in taken.get("dynamics", ())}
-    if flat:
-        if "dynamics" in keywords:
-            raise TypeError(f"{cls.__name__}: give either dynamics= or its parameters ({', '.join(sorted(flat))}), not both")
-        factory: Any = fields["dynamics"].default_factory  # the dynamics' class, or a partial of it
-        keywords["dynamics"] = factory(**flat)
+    for part, factory in _parts(cls).items():  # the part's class, or a partial of it
+        flat = {name: keywords.pop(name) for name in list(keywords) if name in taken[part]}
+        if flat:
+            if part in keywords:
+                raise TypeError(f"{cls.__name__}: give either {part}= or its parameters ({', '.join(sorted(flat))}), not both")
+            keywords[part] = factory(**flat)
     settings = {name: keywords.pop(name) for name in INTEGRATOR_KEYWORDS if name in keywords}
     if settings:
         if "integrator" in keywords:
@@ -103,7 +115,8 @@ def _gather_addons(cls: type[AbstractEnv], taken: dict[str, set[str]], keywords:
         selected = [addon for addon in cls.addons if names[addon] & set(keywords)][:1]
     for i, first in enumerate(selected):
         for second in selected[i + 1 :]:
-            if names[first] & names[second]:
+            # `max_events` (a step's budget of located events) is every located add-on's own.
+            if (names[first] & names[second]) - {"max_events"}:
                 raise ValueError(
                     f"{cls.__name__}: give the keywords of either {first.__name__} "
                     f"({', '.join(sorted(names[first] - shared))}) or {second.__name__} "

@@ -5,8 +5,10 @@ from typing import ClassVar
 
 import jax.numpy as jnp
 
-from .._types import Array, Float, Input
-from ..env import AbstractEnv
+import equinox as eqx
+
+from .._types import Array, Float, Input, Key, Scalar
+from ..env import AbstractEnv, EnvState
 from ..spaces import Box
 
 
@@ -51,4 +53,21 @@ class AbstractUnitActionEnv(AbstractEnv):
         return jnp.sum(self.clipped(action) ** 2)
 
 
-__all__ = ["AbstractUnitActionEnv"]
+class AbstractReachEnv(AbstractUnitActionEnv):
+    """A scene whose task is to bring its first coordinate to `target` and hold it there:
+    the reward after a step is `exp(-(x - target)**2) - action_cost * |a|**2` (1 at the
+    target, falling off with the distance), `a` the clipped action."""
+
+    target: eqx.AbstractVar[Scalar]
+    action_cost: eqx.AbstractVar[Scalar]
+
+    def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
+        del state, key
+        return jnp.exp(-((next_state.y[0] - self.target) ** 2)) - self.action_cost * self.effort(action)
+
+    @property
+    def worst_reward(self) -> Scalar:
+        return -self.action_cost * jnp.ones((), self.dt.dtype)
+
+
+__all__ = ["AbstractReachEnv", "AbstractUnitActionEnv"]

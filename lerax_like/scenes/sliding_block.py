@@ -4,18 +4,18 @@ import equinox as eqx
 import jax.numpy as jnp
 
 from .._fields import FINITE, NONNEGATIVE, POSITIVE
-from .._types import Array, Key, Scalar
-from ..env import EnvState, episode_limit
+from .._types import Array, Scalar
+from ..env import episode_limit
 from ..integrate import Integrator, make_integrator
 from ..physics.friction import PlaneFriction
-from ..physics.sliding_block import SlidingBlockDynamics
+from ..physics.sliding_block import PlaneEnd, SlidingBlockDynamics
 from ._registry import register_scene
-from ._unit_action import AbstractUnitActionEnv
+from ._unit_action import AbstractReachEnv
 
 
 @register_scene
 @final
-class SlidingBlock(AbstractUnitActionEnv):
+class SlidingBlock(AbstractReachEnv):
     """Push a block along an inclined plane with dry friction to a target position and hold it there.
 
     ## Description
@@ -49,13 +49,15 @@ class SlidingBlock(AbstractUnitActionEnv):
     `dynamics` (a `SlidingBlockDynamics`) or its parameters flat: `mass`, `gravity`,
     `incline` (rad, in [0, pi/2)). The friction (`friction`, a one-tuple of `PlaneFriction`)
     or its parameters flat: `static_friction` (0.5) and `kinetic_friction` (0.3, at most the
-    static one), `max_events` (switches per step). `force_mag` (10 N), `target` (1 m),
+    static one), `max_events` (switches per step). A wall across the plane (`contacts`, a
+    one-tuple of `PlaneEnd`) or its parameters flat: `restitution` (none by default: no wall),
+    `plane_end` (2 m), `min_rebound_speed`; it hits, rebounds and sticks where friction stops it. `force_mag` (10 N), `target` (1 m),
     `action_cost`, `dt` (0.05 s), `integrator` or `solver` (`"tsit5"` by default; `"rk4"`),
     `max_episode_steps`.
     """
 
     stochastic: ClassVar[bool] = False
-    addons: ClassVar[tuple[type, ...]] = (PlaneFriction,)
+    addons: ClassVar[tuple[type, ...]] = (PlaneFriction, PlaneEnd)
     action_size: ClassVar[int] = 1
     action_scale: ClassVar[str] = "force_mag"
 
@@ -67,15 +69,8 @@ class SlidingBlock(AbstractUnitActionEnv):
     action_cost: Scalar = eqx.field(default=1e-3, converter=NONNEGATIVE)
     dt: Scalar = eqx.field(default=0.05, converter=POSITIVE)  # s
     max_episode_steps: int | None = episode_limit(200)
+    contacts: tuple = ()  # last, so that the fields given by position keep their places
 
     @property
     def initial_bounds(self) -> tuple[Array, Array]:
         return jnp.full(2, -0.05, self.dt.dtype), jnp.full(2, 0.05, self.dt.dtype)
-
-    def reward(self, state: EnvState, action: Array, next_state: EnvState, *, key: Key | None) -> Scalar:
-        del state, key
-        return jnp.exp(-((next_state.y[0] - self.target) ** 2)) - self.action_cost * self.effort(action)
-
-    @property
-    def worst_reward(self) -> Scalar:
-        return -self.action_cost * jnp.ones((), self.dt.dtype)
