@@ -70,12 +70,10 @@ class AbstractContact(AbstractParametrised):
     @abc.abstractmethod
     def gaps(self, dynamics: AbstractDynamics, y: State) -> Float[Array, " k"]:
         """The gap to each surface in the state `y` (>= 0 admissible)."""
-        raise NotImplementedError
 
     @abc.abstractmethod
     def impact(self, dynamics: AbstractDynamics, y: State, surface: int) -> State:
         """The state just after an impact on `surface` (a Python int) in the state `y`."""
-        raise NotImplementedError
 
     def check(self, dynamics: AbstractDynamics) -> None:
         """Refuse, naming both, dynamics this contact cannot act on (nothing by default)."""

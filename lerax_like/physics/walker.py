@@ -26,22 +26,18 @@ class AbstractWalkerDynamics(AbstractDynamics):
     @abc.abstractmethod
     def front_gap(self, y: State) -> Scalar:
         """Positive during a step, zero at the next heel strike (and decreasing through it)."""
-        raise NotImplementedError
 
     @abc.abstractmethod
     def heel_strike(self, y: State) -> State:
         """The state just after the swing foot lands in the state `y`: it is the new stance foot."""
-        raise NotImplementedError
 
     @abc.abstractmethod
     def stance_angle(self, y: State) -> Scalar:
         """The stance leg's angle from the slope's normal, positive with the hip downhill of the foot."""
-        raise NotImplementedError
 
     @abc.abstractmethod
     def hip_speed(self, y: State) -> Scalar:
         """The hip's velocity along the slope, positive downhill."""
-        raise NotImplementedError
 
 
 def swing_gap(stance: Scalar, gap: Scalar, gap_rate: Scalar) -> Scalar:
