@@ -141,25 +141,16 @@ class CompiledVecEnv(VecEnv):
     that cannot be applied are refused with a `ValueError` naming them, and nothing steps.
 
     `get_attr`, `set_attr` and `env_method` act on each env's `EnvView`, as `DummyVecEnv`'s
-    act on each env: Gymnasium's attributes of the id (`masspole`, `goal_velocity`, ...)
-    read and write that env's own scene, so `set_attr("masspole", 0.2, indices=[1])`
-    changes env 1's physics alone (the batch then steps with one parameter row per env,
-    still one compiled call). Unlike `DummyVecEnv` over Gymnasium's env, where `set_attr`
-    sets the attribute on the outer `Monitor` wrapper and leaves the physics as it was
-    (only `env_method("set_wrapper_attr", ...)` reaches the env), `set_attr` here reaches
-    the physics, as the brief of an SB3 user asks.
+    act on each env: `set_attr("masspole", 0.2, indices=[1])` changes env 1's physics alone
+    (one parameter row per env, still one compiled call), where `DummyVecEnv`'s stops at
+    the outer `Monitor` (docs/gymnasium.md).
 
     `render_mode` is None, `"rgb_array"` (SB3's `render()` tiles the envs' frames) or
     `"human"` (every reset and step shows the envs, tiled in one pygame window).
 
-    `inline_dispatch` (True by default) makes JAX run its CPU computations in the calling
-    thread (`jax_cpu_enable_async_dispatch` False) if JAX has not started its CPU client
-    yet, as it has not when this env is the process's first JAX work (`inline_cpu_dispatch`).
-    Every step waits for its result at once, so JAX's default asynchronous dispatch
-    only adds a hand-off to another thread and back, which at 8 envs costs as much as the
-    step itself: this is what makes the VecEnv as fast as SB3's `DummyVecEnv` at 8 envs
-    (docs/performance.md). The setting is JAX's, for the whole process, and changes no
-    number; False leaves it as it is.
+    `inline_dispatch` (True by default) calls `inline_cpu_dispatch` first: what makes the
+    VecEnv as fast as SB3's `DummyVecEnv` at 8 envs (docs/performance.md); it changes no
+    number, and False leaves JAX's setting as it is.
     """
 
     # The vector env's single action space, as `to_gymnasium_space` builds it (SB3 declares any `Space`).
