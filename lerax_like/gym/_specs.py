@@ -38,9 +38,6 @@ class GymnasiumSpec:
     - `reset_options`: how Gymnasium's `reset(options=...)` bounds the start: `"bounds"`
       (`low`/`high` for every drawn coordinate) or `"pendulum"` (`x_init`, `y_init`).
     - `float32_start`: Gymnasium's env stores its start in float32 (Acrobot).
-
-    The start itself is drawn from the scene's own `initial_bounds`, with NumPy in
-    Gymnasium's order of calls, so that seeds give Gymnasium's starts.
     """
 
     name: str

@@ -55,10 +55,7 @@ class GymnasiumVectorEnv(GymnasiumAttributes, VectorEnv):
     integer, not finite) is refused with a `ValueError` naming it and the space.
 
     The steps are compiled when the env is made (`warm_up=False`: at their first call).
-
-    Stepped from Python on a CPU, each step waits for JAX's dispatch thread; with
-    `jax.config.update("jax_cpu_enable_async_dispatch", False)`, called before JAX's first
-    computation, it runs in the calling thread, which is faster for steps this small.
+    On a CPU, see docs/performance.md for JAX's dispatch, which costs as much as a small step.
     """
 
     # What `to_gymnasium_space` builds (Gymnasium declares any `Space`).
