@@ -11,11 +11,17 @@ from typing import final
 
 import equinox as eqx
 import jax.numpy as jnp
+import numpy as np
 
-from .._fields import option
+from .._fields import Range, option
 from .._types import Array, Float, Scalar, State
 from ._base import AbstractDynamics
 from .contact import AbstractContact
+
+SLOPE = Range(
+    "in [0, pi/2) (allowed range [0, pi/2), radians downhill)",
+    lambda a: bool(np.all(np.isfinite(a)) and np.all((a >= 0) & (a < np.pi / 2))),
+)
 
 
 class AbstractWalkerDynamics(AbstractDynamics):
