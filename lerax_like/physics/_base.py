@@ -76,4 +76,3 @@ class AbstractChainDynamics(AbstractConservativeDynamics):
         self, t: ScalarLike, y: State, u: Input, generalised_force: Float[Array, " q"]
     ) -> State:
         """`vector_field` with the extra generalised force `Q` on `q` added to the input's."""
-        raise NotImplementedError
