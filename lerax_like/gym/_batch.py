@@ -301,6 +301,3 @@ class Batch:
         state = to_device(state)
         self._split = SplitScene(state.pop("_scene"), state.pop("_dtype"))
         self.__dict__.update(state)
-
-
-__all__ = ["Batch", "Outcome"]

@@ -182,6 +182,3 @@ class GymnasiumEnv(GymnasiumAttributes, gymnasium.Env):
         state = to_device(state)
         self._split = SplitScene(state.pop("_scene"))
         self.__dict__.update(state, _renderer=None)
-
-
-__all__ = ["GymnasiumEnv"]

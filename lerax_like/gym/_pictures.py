@@ -345,9 +345,3 @@ def sliding_block(scene: AbstractEnv, state: np.ndarray, action) -> np.ndarray:
         push = float(np.asarray(scene.physical_input(action), dtype=np.float64)[0])
         arrow(canvas, tuple(centre), tuple(0.05 * push * along))
     return canvas.image()
-
-
-__all__ = [
-    "Canvas", "acrobot", "arrow", "bouncing_ball", "cart_chain", "cart_pole", "chain", "compass_gait", "mountain_car",
-    "n_link_pendulum", "pendulum", "planar_quadrotor", "rimless_wheel", "simplest_walker", "sliding_block", "value", "values", "van_der_pol",
-]

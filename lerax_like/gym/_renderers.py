@@ -104,6 +104,3 @@ def render_frame(scene: AbstractEnv, state, action=None) -> np.ndarray:
             f"got {frame.dtype} of shape {frame.shape}"
         )
     return frame
-
-
-__all__ = ["RENDERERS", "Renderer", "register_renderer", "render_frame", "renderer_for"]

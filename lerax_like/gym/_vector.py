@@ -321,6 +321,3 @@ class GymnasiumVectorEnv(GymnasiumAttributes, VectorEnv):
         if self._window is not None:
             self._window.close()
             self._window = None
-
-
-__all__ = ["GymnasiumVectorEnv"]

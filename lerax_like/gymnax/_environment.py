@@ -107,6 +107,3 @@ def _to_gymnax(space: AbstractSpace):
             space.low, space.high, space.shape, space.low.dtype  # pyright: ignore[reportArgumentType]
         )
     raise TypeError(f"no gymnax counterpart for the space {space!r}")
-
-
-__all__ = ["Environment"]

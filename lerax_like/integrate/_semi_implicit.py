@@ -100,6 +100,3 @@ class SemiImplicitEuler(diffrax.AbstractSolver):
 
     def func(self, terms, t0, y0, args):
         return terms.vf(t0, y0, args)
-
-
-__all__ = ["ProjectedODETerm", "SemiImplicitEuler"]

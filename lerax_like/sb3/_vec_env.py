@@ -458,6 +458,3 @@ def make_vec_env(
         os.makedirs(monitor_dir, exist_ok=True)
         filename = os.path.join(monitor_dir, str(start_index))
     return MonitoredVecEnv(venv, filename=filename, **monitor_kwargs)
-
-
-__all__ = ["CompiledVecEnv", "EnvView", "MonitoredVecEnv", "inline_cpu_dispatch", "make_vec_env"]
