@@ -135,10 +135,9 @@ class CompiledVecEnv(VecEnv):
 
     One step is one compiled call of all envs, restarts included (`Batch.advance_then_restart`):
     each env's next start is drawn from its generator on the host when its episode starts,
-    so the step that ends the episode restarts the env at once. After `np_random` (or
-    `generators`) has been handed out, anyone may draw from the generators, so from then on
-    a start is drawn when the env restarts, and the restart is a second call. Actions
-    that cannot be applied are refused with a `ValueError` naming them, and nothing steps.
+    so the step that ends the episode restarts the env at once (until the generators are
+    handed out: `generators`). Actions that cannot be applied are refused with a
+    `ValueError` naming them, and nothing steps.
 
     `get_attr`, `set_attr` and `env_method` act on each env's `EnvView`, as `DummyVecEnv`'s
     act on each env: `set_attr("masspole", 0.2, indices=[1])` changes env 1's physics alone
@@ -413,14 +412,6 @@ class MonitoredVecEnv(VecMonitor):
         return self.venv.env_is_wrapped(wrapper_class, indices)
 
 
-_UNSUPPORTED = {
-    "wrapper_class": "wrap the returned VecEnv in an SB3 VecEnvWrapper instead",
-    "wrapper_kwargs": "wrap the returned VecEnv in an SB3 VecEnvWrapper instead",
-    "vec_env_cls": "the batch is one compiled step, not a DummyVecEnv or SubprocVecEnv",
-    "vec_env_kwargs": "the batch is one compiled step, not a DummyVecEnv or SubprocVecEnv",
-}
-
-
 def make_vec_env(
     env_id: str,
     n_envs: int = 1,
@@ -437,11 +428,14 @@ def make_vec_env(
     inline_dispatch: bool = True,
 ) -> VecEnv:
     """See `lerax_like.sb3.make_vec_env`."""
-    given = {"wrapper_class": wrapper_class, "wrapper_kwargs": wrapper_kwargs, "vec_env_cls": vec_env_cls,
-             "vec_env_kwargs": vec_env_kwargs}
-    for name, value in given.items():
+    for name, value, instead in (
+        ("wrapper_class", wrapper_class, "wrap the returned VecEnv in an SB3 VecEnvWrapper instead"),
+        ("wrapper_kwargs", wrapper_kwargs, "wrap the returned VecEnv in an SB3 VecEnvWrapper instead"),
+        ("vec_env_cls", vec_env_cls, "the batch is one compiled step, not a DummyVecEnv or SubprocVecEnv"),
+        ("vec_env_kwargs", vec_env_kwargs, "the batch is one compiled step, not a DummyVecEnv or SubprocVecEnv"),
+    ):
         if value:
-            raise ValueError(f"{name} is not supported by lerax_like.sb3.make_vec_env: {_UNSUPPORTED[name]}")
+            raise ValueError(f"{name} is not supported by lerax_like.sb3.make_vec_env: {instead}")
     if not isinstance(n_envs, int) or n_envs < 1:
         raise ValueError(f"n_envs must be an integer >= 1, got {n_envs!r}")
     monitor_kwargs = dict(monitor_kwargs or {})
