@@ -203,6 +203,7 @@ def _gradient_variance(arguments) -> int:
         summary,
         write_gradient_variance,
     )
+    from .analysis.recording import matplotlib_available
     from .analysis.tables import format_gradient_variance_table
 
     arguments.scene = _scene_from(arguments, "gradient-variance")
@@ -225,8 +226,6 @@ def _gradient_variance(arguments) -> int:
     if arguments.scene == "CartPole":
         print("CartPole is studied through CartPoleContinuous: a force of action * force_mag newtons, "
               "continuous, so that the cost is differentiable in the actions")
-    from .analysis.recording import matplotlib_available
-
     plot = not arguments.no_plot and matplotlib_available()
     paths = write_gradient_variance(results, arguments.out, stem=f"{arguments.scene}_gradient_variance",
                                     plot=plot, study_seconds=elapsed)
