@@ -35,14 +35,11 @@ when the adjoint does not say: see `sized_to_the_work`."""
 def sized_to_the_work(adjoint: diffrax.AbstractAdjoint, max_steps: int) -> diffrax.AbstractAdjoint:
     """`adjoint`, with a `RecursiveCheckpointAdjoint` that names no checkpoint count given `CHECKPOINTS`.
 
-    diffrax sizes the checkpoints of a solve by its step budget (about `sqrt(2 max_steps)`:
-    90 for the 4096 steps of an adaptive env step), and reverse mode allocates and carries all of
-    them whether the solve takes 2 steps or 4000. An env step of 0.02 s takes a handful, so 8
-    hold every step of a solve of up to 44 steps with no recomputation beyond one forward sweep
-    (Stumm and Walther's online schedule, `equinox.internal.while_loop`); a longer solve is
-    recomputed more, never wrong: the gradient is the same, to the last bit. Measured on
-    `CartPoleContinuous(integrator="tsit5")`, 64 envs x 100 steps: 81 MiB of XLA temp memory with
-    diffrax's count, 4 MiB with 4 checkpoints, at the same time (`benchmarks/gradient_cost.py`).
+    Why, and what it costs (Stumm and Walther's online schedule recomputes more beyond 44 steps,
+    with the same gradient to the last bit): docs/gradients.md, "Per solve". Measured on
+    `CartPoleContinuous(integrator="tsit5")`, 64 envs x 100 steps: 81 MiB of XLA temp memory
+    with diffrax's count (about `sqrt(2 max_steps)`), 4 MiB with 4 checkpoints, at the same
+    time (`benchmarks/gradient_cost.py`).
     """
     if type(adjoint) is diffrax.RecursiveCheckpointAdjoint and adjoint.checkpoints is None:
         return diffrax.RecursiveCheckpointAdjoint(checkpoints=min(CHECKPOINTS, max_steps))

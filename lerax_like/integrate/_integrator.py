@@ -241,11 +241,8 @@ class Integrator(eqx.Module):
 
         Same solver, controller, first step and budget as `integrate`, so the same steps;
         between them the solver's interpolation: the methods' own for Tsit5, Dopri5 and
-        Dopri8, linear for the Euler methods, and cubic Hermite from the vector field at
-        both ends of each step for the other explicit Runge--Kutta methods, a user's
-        tableau included (`HermiteDenseOutput`: of the method's order up to four, where
-        diffrax's default slope at the step's end, its last stage, can lose orders). No
-        projection is applied to the interpolated states. Returns the states, shape
+        Dopri8, linear for the Euler methods, and `HermiteDenseOutput`'s for the other
+        explicit Runge--Kutta methods, a user's tableau included. No projection is applied to the interpolated states. Returns the states, shape
         `(len(ts), n)`, and whether the solve succeeded.
         """
         dt, term, dt0 = self._term_and_first_step(vector_field, y0, dt, t0, projection, velocity_indices)
