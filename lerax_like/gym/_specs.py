@@ -7,8 +7,7 @@ Gymnasium's name; the others are `lerax_like/<scene class>-v0`, with the scene's
 episode length. The scenes themselves know nothing of Gymnasium: its names (`masspole`),
 renderers and start conventions live here. The start is drawn from the scene's own
 `initial_bounds`, with NumPy in the order of Gymnasium's calls, so that a seed gives
-Gymnasium's start; the renderer is Gymnasium's env class, fed the scene's state and the
-attributes the spec maps, or for the other scenes lerax_like's own (`RENDERERS`).
+Gymnasium's start.
 """
 
 import dataclasses
