@@ -37,6 +37,3 @@ def episode_time(steps: IntScalar | int, dt: Scalar) -> Scalar:
     6.7e-7 s for the carried sum.
     """
     return jnp.asarray(steps).astype(jnp.result_type(dt)) * dt
-
-
-__all__ = ["episode_limit", "episode_time"]

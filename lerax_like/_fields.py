@@ -159,18 +159,3 @@ class AbstractParametrised(eqx.Module):
             choices = field.metadata.get("choices")
             if choices is not None and value not in choices:
                 raise ValueError(f"{field.name} must be one of {choices}, got {value!r}")
-
-
-__all__ = [
-    "FINITE",
-    "NONNEGATIVE",
-    "POSITIVE",
-    "POSITIVE_OR_INF",
-    "AbstractParametrised",
-    "Range",
-    "as_parameter",
-    "check_count",
-    "check_shape",
-    "option",
-    "parameter_range",
-]

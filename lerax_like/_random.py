@@ -29,6 +29,3 @@ def uniform(key: Key, shape: tuple[int, ...], dtype: DTypeLike, minval: ArrayLik
     minval = jnp.asarray(minval, dtype)
     maxval = jnp.asarray(maxval, dtype)
     return (minval + (maxval - minval) * fraction.reshape(shape)).astype(dtype)
-
-
-__all__ = ["uniform"]

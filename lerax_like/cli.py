@@ -16,7 +16,6 @@ import sys
 import time
 
 
-
 SOLVER_HELP = (
     "a solver to study, repeatable: a preset (see `lerax-like solvers`) or 'module:attribute' naming a "
     "diffrax solver instance or a solver class built with no arguments ('diffrax:Bosh3', "
@@ -99,6 +98,11 @@ def _scene_keywords(arguments, command: str) -> dict[str, float]:
         sys.exit(2)
 
 
+def _given(arguments, *names: str) -> dict:
+    """The options of `names` that the command line gives (those not None), by name."""
+    return {name: getattr(arguments, name) for name in names if getattr(arguments, name) is not None}
+
+
 def _study(arguments) -> int:
     from .analysis.recording import matplotlib_available
     from .analysis.study import VERDICT_TARGETS, StudyConfig, run_study, sweeps_for
@@ -108,11 +112,7 @@ def _study(arguments) -> int:
     from .analysis.scenes import SCENES
 
     arguments.scene = _scene_from(arguments, "study")
-    overrides = {}
-    if arguments.seed is not None:
-        overrides["seed"] = arguments.seed
-    if arguments.horizon is not None:
-        overrides["horizon"] = arguments.horizon
+    overrides = _given(arguments, "seed", "horizon")
     solvers = _solvers_from(arguments, "study")
     if solvers is not None:
         overrides["sweeps"] = sweeps_for(solvers, quick=arguments.quick, stiff=SCENES[arguments.scene].stiff)
@@ -160,11 +160,7 @@ def _gradients(arguments) -> int:
     from .analysis.tables import format_gradient_table
 
     arguments.scene = _scene_from(arguments, "gradients")
-    overrides = {"mode": arguments.mode}
-    if arguments.seed is not None:
-        overrides["seed"] = arguments.seed
-    if arguments.horizon is not None:
-        overrides["horizon"] = arguments.horizon
+    overrides = {"mode": arguments.mode, **_given(arguments, "seed", "horizon")}
     if arguments.scene_keyword:
         overrides["scene_kwargs"] = _scene_keywords(arguments, "gradients")
     solvers = _solvers_from(arguments, "gradients")
@@ -207,16 +203,13 @@ def _gradient_variance(arguments) -> int:
         summary,
         write_gradient_variance,
     )
+    from .analysis.recording import matplotlib_available
     from .analysis.tables import format_gradient_variance_table
 
     arguments.scene = _scene_from(arguments, "gradient-variance")
-    overrides = {}
-    if arguments.seed is not None:
-        overrides["seed"] = arguments.seed
+    overrides = _given(arguments, "seed", "dtype")
     if arguments.solver:
         overrides["solvers"] = tuple(arguments.solver)
-    if arguments.dtype is not None:
-        overrides["dtype"] = arguments.dtype
     cases = [{"end_stop_stiffness": k} for k in arguments.end_stop_stiffness or []]
     cases += [{"restitution": e} for e in arguments.restitution or []]
     try:
@@ -224,10 +217,8 @@ def _gradient_variance(arguments) -> int:
             GradientVarianceConfig.default(arguments.scene, quick=arguments.quick, scene_kwargs=kwargs, **overrides)
             for kwargs in cases or [{}]
         ]
-        results = []
         start = time.perf_counter()
-        for config in configs:
-            results.append(run_gradient_variance(config, progress=lambda m: print(m, file=sys.stderr)))
+        results = [run_gradient_variance(config, progress=lambda m: print(m, file=sys.stderr)) for config in configs]
         elapsed = time.perf_counter() - start
     except ValueError as error:
         print(f"lerax-like gradient-variance: {error}", file=sys.stderr)
@@ -235,16 +226,11 @@ def _gradient_variance(arguments) -> int:
     if arguments.scene == "CartPole":
         print("CartPole is studied through CartPoleContinuous: a force of action * force_mag newtons, "
               "continuous, so that the cost is differentiable in the actions")
-    plot = not arguments.no_plot
-    if plot:
-        try:
-            import matplotlib  # noqa: F401
-        except ImportError:
-            print("no plot: matplotlib is not installed (pip install 'lerax_like[study]')")
-            plot = False
+    plot = not arguments.no_plot and matplotlib_available()
     paths = write_gradient_variance(results, arguments.out, stem=f"{arguments.scene}_gradient_variance",
                                     plot=plot, study_seconds=elapsed)
     for result in results:
+        print()
         print(f"{result.config.name}: {result.config.samples} samples per estimator, reference of "
               f"{result.config.reference_samples} antithetic zeroth-order samples ({result.config.dtype})")
         print(format_gradient_variance_table(result.rows))
@@ -260,9 +246,7 @@ def _gradient_variance(arguments) -> int:
                 print(f"    float32 loses the leading digit at H = {entry['float32_first_digit_lost_horizon']} "
                       f"(searched up to {entry['float32_horizons_searched']}; relative error there "
                       f"{entry['float32_relative_error_at_longest']:.1e})")
-        print()
-    print(f"study took {elapsed:.1f} s; wrote " + ", ".join(paths.values()))
-    return 0
+    return _finish(arguments, plot, elapsed, paths)
 
 
 def _rollout(arguments) -> int:

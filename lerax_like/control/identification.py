@@ -54,7 +54,7 @@ def multiple_shooting_residuals(
 
 def fit_parameters(
     env: AbstractEnv,
-    where: Callable[[AbstractEnv], Array],
+    where: Callable[[AbstractEnv], Array | tuple[Array, ...]],
     states: Float[Array, "batch T+1 n"],
     actions: Float[Array, "batch T m"],
     *,

@@ -48,9 +48,6 @@ def ilqr(
         y_final, ys = jax.lax.scan(body, y0, actions)
         return ys, y_final
 
-    def cost(actions):
-        return trajectory_cost(step, stage_cost, terminal_cost, y0, actions)
-
     def iteration(_, carry):
         actions, current_cost = carry
         ys, y_final = rollout_states(actions)
@@ -95,4 +92,6 @@ def ilqr(
         return actions, jnp.where(improved, costs[best], current_cost)
 
     actions = jnp.clip(actions, low, high)
-    return jax.lax.fori_loop(0, iterations, iteration, (actions, cost(actions)))
+    return jax.lax.fori_loop(
+        0, iterations, iteration, (actions, trajectory_cost(step, stage_cost, terminal_cost, y0, actions))
+    )

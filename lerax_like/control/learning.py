@@ -17,7 +17,7 @@ import jax.numpy as jnp
 import jax.random as jr
 
 from .._types import Array, ArrayLike, Float, Int, Key
-from ..env import AbstractEnv, EnvState, step_keys
+from ..env import AbstractEnv, EnvState, rollout, step_keys
 
 
 def _optax():
@@ -280,6 +280,4 @@ def optimise_open_loop(
 
 def rollout_states(env: AbstractEnv, state: EnvState, actions: Array) -> Float[Array, "T n"]:
     """The states after each of `actions` (`lerax_like.rollout` without the info)."""
-    from ..env import rollout
-
     return rollout(env, state, actions, key=jr.key(0))[0]

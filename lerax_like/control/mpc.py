@@ -114,19 +114,14 @@ def adaptive_mpc(
         seen_states.append(ys)
         seen_actions.append(taken)
         if refit:
-            # One-step residuals over every transition seen; episodes may differ in length.
-            states = jnp.concatenate([s[:-1] for s in seen_states])
-            next_states = jnp.concatenate([s[1:] for s in seen_states])
-            model = _refit(model, where, states, next_states, jnp.concatenate(seen_actions))
+            # One-step residuals over every transition seen (episodes may differ in length):
+            # each transition is a trajectory of one step, fitted with a window of 1.
+            pairs = jnp.concatenate([jnp.stack([s[:-1], s[1:]], axis=1) for s in seen_states])
+            pair_actions = jnp.concatenate(seen_actions)[:, None, :]
+            model, _ = fit_parameters(model, where, pairs, pair_actions, window=1, max_steps=50)
             estimates.append(where(model))
             if verbose:
                 print("  refitted:", jax.tree.map(np.asarray, where(model)))
     report.update(episodes=episode + 1, transitions=transitions, estimates=estimates, model=model)
     return report
 
-
-def _refit(model, where, states, next_states, actions):
-    # Transitions as trajectories of one step each: window 1 on (N, 2, n) "trajectories".
-    pairs = jnp.stack([states, next_states], axis=1)
-    fitted, _ = fit_parameters(model, where, pairs, actions[:, None, :], window=1, max_steps=50)
-    return fitted

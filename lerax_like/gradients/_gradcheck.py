@@ -1,9 +1,4 @@
-"""Checking autodiff gradients against central finite differences.
-
-`gradcheck(fn, tree)` differentiates a scalar function of a pytree (an env, a dict of
-parameters, ...) with `jax.grad` (or `jax.jacfwd`) and compares, leaf by leaf, with
-central finite differences computed in float64. The report says, per leaf, both
-gradients, their relative error and the finite-difference steps.
+"""Checking autodiff gradients against central finite differences, leaf by leaf (`gradcheck`).
 
 Finite differences are only a reference where the function is smooth around the point:
 at a termination threshold, an action clip or a jump in an adaptive solver's number of

@@ -65,6 +65,3 @@ class GymnasiumAttributes:
             for path in spec.attribute_paths[name]:
                 scene = _replace(scene, path, value, name)
             self.scene = scene
-
-
-__all__ = ["GymnasiumAttributes"]

@@ -48,11 +48,9 @@ def _jitted_copy(array):
 class Batch:
     """`num_envs` copies of `scene`, stepped together by compiled, batched calls in `dtype`.
 
-    `state` (shape `(num_envs, n)`, of `dtype`) and `steps` are the envs' states and step
-    counts; `observation` is the last float32 observation returned (a failed step returns
-    it again). `scene` may be replaced (new parameters: the same compiled program when
-    only array leaves change); the states stay. The time limit is the scene's
-    `max_episode_steps`.
+    A failed step returns the last `observation` again. `scene` may be replaced (new
+    parameters: the same compiled program when only array leaves change); the states stay.
+    The time limit is the scene's `max_episode_steps`.
 
     `set_scenes` gives some envs scenes of their own (other parameters, same
     configuration): the compiled calls then take one parameter row per env; assigning
@@ -301,6 +299,3 @@ class Batch:
         state = to_device(state)
         self._split = SplitScene(state.pop("_scene"), state.pop("_dtype"))
         self.__dict__.update(state)
-
-
-__all__ = ["Batch", "Outcome"]

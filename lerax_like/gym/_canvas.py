@@ -176,6 +176,3 @@ class Canvas:
     def image(self) -> np.ndarray:
         """The picture: `(height, width, 3)` uint8."""
         return self._pixels.copy()
-
-
-__all__ = ["Canvas"]

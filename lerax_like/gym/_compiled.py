@@ -411,24 +411,3 @@ def _functions(treedef, static, layout) -> Compiled:
         step, observe, batch_observe, batch_advance, batch_advance_or_restart, batch_restart,
         batch_advance_then_restart,
     )
-
-
-__all__ = [
-    "DTYPES",
-    "Compiled",
-    "HostArray",
-    "SplitScene",
-    "StepOutcome",
-    "VecStep",
-    "build_scene",
-    "check_dtype",
-    "float64",
-    "layer_advance",
-    "pack_step",
-    "precision",
-    "to_device",
-    "to_host",
-    "to_numpy",
-    "unpack_step",
-    "unpack_vec_step",
-]

@@ -95,11 +95,9 @@ class GymnasiumEnv(GymnasiumAttributes, gymnasium.Env):
 
     @state.setter
     def state(self, value) -> None:
-        if value is None:
-            self._state = None
-            return
-        state = check_state(value, self._initial_bounds[0].shape, "float64", f"{self._gym_spec.name}'s state")
-        self._state = state
+        self._state = None if value is None else check_state(
+            value, self._initial_bounds[0].shape, "float64", f"{self._gym_spec.name}'s state"
+        )
 
     def _warm_up(self) -> None:
         # Compile the step and the observation now, not in the first step of training.
@@ -182,6 +180,3 @@ class GymnasiumEnv(GymnasiumAttributes, gymnasium.Env):
         state = to_device(state)
         self._split = SplitScene(state.pop("_scene"))
         self.__dict__.update(state, _renderer=None)
-
-
-__all__ = ["GymnasiumEnv"]

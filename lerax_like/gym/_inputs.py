@@ -94,6 +94,3 @@ def check_state(value, shape: tuple[int, ...], dtype: str, what: str) -> np.ndar
     if not np.isfinite(state).all():
         raise ValueError(f"state must be finite, got {state.tolist()}")
     return state
-
-
-__all__ = ["check_action", "check_actions", "check_state"]

@@ -372,8 +372,3 @@ def rolling_disk(scene: AbstractEnv, state: np.ndarray, action) -> np.ndarray:
         arrow(canvas, (x, z + radius), (0.5 * torque, 0.0))
     return canvas.image()
 
-
-__all__ = [
-    "Canvas", "acrobot", "arrow", "bouncing_ball", "cart_chain", "cart_pole", "chain", "compass_gait", "mountain_car",
-    "n_link_pendulum", "pendulum", "planar_quadrotor", "rimless_wheel", "rolling_disk", "simplest_walker", "sliding_block", "value", "values", "van_der_pol",
-]

@@ -27,6 +27,3 @@ def register_envs() -> tuple[str, ...]:
             )
         registered.append(spec.id)
     return tuple(registered)
-
-
-__all__ = ["register_envs"]

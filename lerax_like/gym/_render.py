@@ -131,6 +131,3 @@ class HumanWindow:
             pygame.display.quit()
             pygame.quit()
             self._window = None
-
-
-__all__ = ["GymnasiumRenderer", "HumanWindow", "SceneRenderer", "make_renderer", "render_fps", "require_pygame", "tile"]

@@ -8,9 +8,8 @@ it, and a scene whose task has something to show (a target, a wall) has its own.
 
 A scene added outside the package (a user's, a contributor's) adds its picture with
 `register_renderer`; `tests/test_render.py` draws every registered scene, and fails
-naming the scene that has none. Behind their Gymnasium ids, the scenes standing for
-Gymnasium's envs are drawn by Gymnasium's own renderers instead (`GymnasiumSpec.renderer`),
-pixel for pixel as Gymnasium; `render_frame` draws them too, with NumPy.
+naming the scene that has none. (Behind their Gymnasium ids, the scenes standing for
+Gymnasium's envs are drawn by Gymnasium's own renderers: `lerax_like.gym._render`.)
 """
 
 from collections.abc import Callable, Mapping
@@ -106,6 +105,3 @@ def render_frame(scene: AbstractEnv, state, action=None) -> np.ndarray:
             f"got {frame.dtype} of shape {frame.shape}"
         )
     return frame
-
-
-__all__ = ["RENDERERS", "Renderer", "register_renderer", "render_frame", "renderer_for"]

@@ -14,6 +14,3 @@ def to_gymnasium_space(space: AbstractSpace) -> gymnasium.spaces.Discrete | gymn
         high = np.asarray(space.high, dtype=np.float32)
         return gymnasium.spaces.Box(low=low, high=high, shape=space.shape, dtype=np.float32)
     raise TypeError(f"no Gymnasium counterpart for the space {space!r}")
-
-
-__all__ = ["to_gymnasium_space"]

@@ -7,8 +7,7 @@ Gymnasium's name; the others are `lerax_like/<scene class>-v0`, with the scene's
 episode length. The scenes themselves know nothing of Gymnasium: its names (`masspole`),
 renderers and start conventions live here. The start is drawn from the scene's own
 `initial_bounds`, with NumPy in the order of Gymnasium's calls, so that a seed gives
-Gymnasium's start; the renderer is Gymnasium's env class, fed the scene's state and the
-attributes the spec maps, or for the other scenes lerax_like's own (`RENDERERS`).
+Gymnasium's start.
 """
 
 import dataclasses
@@ -38,9 +37,6 @@ class GymnasiumSpec:
     - `reset_options`: how Gymnasium's `reset(options=...)` bounds the start: `"bounds"`
       (`low`/`high` for every drawn coordinate) or `"pendulum"` (`x_init`, `y_init`).
     - `float32_start`: Gymnasium's env stores its start in float32 (Acrobot).
-
-    The start itself is drawn from the scene's own `initial_bounds`, with NumPy in
-    Gymnasium's order of calls, so that seeds give Gymnasium's starts.
     """
 
     name: str

@@ -23,18 +23,10 @@ class GymnasiumVectorEnv(GymnasiumAttributes, VectorEnv):
 
     One call of `step` is one compiled, batched step of all envs (`batch`, a `Batch`),
     integrated in `dtype`. `autoreset_mode` is one of Gymnasium's (`metadata["autoreset_mode"]`),
-    with the semantics of Gymnasium's `SyncVectorEnv`:
-
-    - `NEXT_STEP` (the default, as Gymnasium's vector CartPole): the step after an
-      episode ends (terminated, or truncated after `max_episode_steps`) restarts that
-      env, returning its fresh observation, reward 0 and terminated and truncated False
-      (and no info for it);
-    - `SAME_STEP`: the step that ends an episode restarts the env at once and returns
-      its fresh observation; the last one is `info["final_obs"][i]` and that step's info
-      `info["final_info"]`, with the masks `_final_obs` and `_final_info`;
-    - `DISABLED`: nothing restarts by itself; `reset(options={"reset_mask": mask})`
-      (a boolean array of shape `(num_envs,)`) restarts the envs of `mask` and keeps the
-      others as they are. Stepping an env that ended without resetting it is refused.
+    with the semantics Gymnasium documents for them and its `SyncVectorEnv` has: `NEXT_STEP`
+    (the default, as Gymnasium's vector CartPole), `SAME_STEP` (`info["final_obs"]` and
+    `info["final_info"]`), `DISABLED` (`reset(options={"reset_mask": mask})`; stepping an
+    env that ended without resetting it is refused).
 
     Initial states are drawn on the host from `self.np_random` with the calls of
     Gymnasium's vector CartPole (`uniform(size=(4, num_envs))` at reset, one draw of
@@ -46,8 +38,7 @@ class GymnasiumVectorEnv(GymnasiumAttributes, VectorEnv):
     does, `"float32"` as JAX users run on accelerators (the parameters are cast once; the
     starts are drawn as above, then rounded). Observations are float32 either way.
 
-    `state` is the state in the layout of Gymnasium's vector CartPole (`(n, num_envs)`,
-    of `dtype`), readable and writable. The info holds the per-env `solver_ok`,
+    `state` is readable and writable. The info holds the per-env `solver_ok`,
     `solver_steps` and `action_ok`, with Gymnasium's `_name` masks. Rewards are of `dtype`.
     Gymnasium's attributes of the id's env (`masspole`, `tau`, ...) read and write the scene
     all envs share (`GymnasiumAttributes`).
@@ -55,10 +46,7 @@ class GymnasiumVectorEnv(GymnasiumAttributes, VectorEnv):
     integer, not finite) is refused with a `ValueError` naming it and the space.
 
     The steps are compiled when the env is made (`warm_up=False`: at their first call).
-
-    Stepped from Python on a CPU, each step waits for JAX's dispatch thread; with
-    `jax.config.update("jax_cpu_enable_async_dispatch", False)`, called before JAX's first
-    computation, it runs in the calling thread, which is faster for steps this small.
+    On a CPU, see docs/performance.md for JAX's dispatch, which costs as much as a small step.
     """
 
     # What `to_gymnasium_space` builds (Gymnasium declares any `Space`).
@@ -324,6 +312,3 @@ class GymnasiumVectorEnv(GymnasiumAttributes, VectorEnv):
         if self._window is not None:
             self._window.close()
             self._window = None
-
-
-__all__ = ["GymnasiumVectorEnv"]

@@ -5,10 +5,8 @@
 `lerax_like.gym.envs:CartPoleVectorEnv`, as Gymnasium's own id names
 `gymnasium.envs.classic_control.cartpole:CartPoleEnv`. A string entry point is what
 Gymnasium's machinery expects: the spec serialises (`EnvSpec.to_json`), compares equal
-after `make`, and pickles. Each name is an `EnvCreator` of the id's `GymSpec`, which builds
-a `GymnasiumEnv` (or a `GymnasiumVectorEnv`) with `make`'s keywords; its `metadata` is what
-`gymnasium.make` reads to add `RenderCollection` for `render_mode="rgb_array_list"` or
-`HumanRendering`.
+after `make`, and pickles. An `EnvCreator`'s `metadata` is what `gymnasium.make` reads to
+add `RenderCollection` for `render_mode="rgb_array_list"` or `HumanRendering`.
 """
 
 from typing import Any

@@ -22,8 +22,8 @@ _SEPARATE_TRUNCATION = hasattr(gymnax_environment.Environment, "is_truncated")
 _NO_LIMIT = jnp.iinfo(jnp.int32).max
 
 
-def _limit_free(scene: AbstractEnv) -> AbstractEnv:
-    return eqx.tree_at(lambda s: s.max_episode_steps, scene, None, is_leaf=lambda x: x is None)
+def _with_limit(scene: AbstractEnv, limit) -> AbstractEnv:
+    return eqx.tree_at(lambda s: s.max_episode_steps, scene, limit, is_leaf=lambda x: x is None)
 
 
 @final
@@ -42,7 +42,7 @@ class Environment(gymnax_environment.Environment):
 
     def __init__(self, scene: AbstractEnv, name: str | None = None):
         limit = scene.max_episode_steps
-        arrays, self._static = eqx.partition(_limit_free(scene), eqx.is_array)
+        arrays, self._static = eqx.partition(_with_limit(scene, None), eqx.is_array)
         self._default_params = Params(
             scene=arrays, max_steps_in_episode=jnp.asarray(_NO_LIMIT if limit is None else limit, dtype=int)
         )
@@ -50,12 +50,7 @@ class Environment(gymnax_environment.Environment):
 
     def scene(self, params: Params) -> AbstractEnv:
         """The functional env (`lerax_like.AbstractEnv`) that `params` describe."""
-        return eqx.tree_at(
-            lambda s: s.max_episode_steps,
-            eqx.combine(params.scene, self._static),
-            params.max_steps_in_episode,
-            is_leaf=lambda x: x is None,
-        )
+        return _with_limit(eqx.combine(params.scene, self._static), params.max_steps_in_episode)
 
     @property
     def default_params(self) -> Params:
@@ -107,6 +102,3 @@ def _to_gymnax(space: AbstractSpace):
             space.low, space.high, space.shape, space.low.dtype  # pyright: ignore[reportArgumentType]
         )
     raise TypeError(f"no gymnax counterpart for the space {space!r}")
-
-
-__all__ = ["Environment"]

@@ -50,6 +50,3 @@ def make(name: str, **keywords):
     scene = make_scene(classes[name], **keywords)
     env = environment_class()(scene, name=name)
     return env, env.default_params
-
-
-__all__ = ["environment_class", "make", "registered_envs"]

@@ -27,6 +27,3 @@ class Params(eqx.Module):
 
     def replace(self, **changes) -> "Params":
         return dataclasses.replace(self, **changes)
-
-
-__all__ = ["Params"]

@@ -1,41 +1,20 @@
 """Choosing how gradients pass through the solves of an env: the adjoint.
 
-Every env step is a `diffrax.diffeqsolve`, so the adjoint method is a property of the
-env's `Integrator`. Three are useful:
+Every env step is a `diffrax.diffeqsolve`, so the adjoint is a property of the env's
+`Integrator`. The three of `ADJOINTS`, and when to use which, are described in
+docs/gradients.md ("Which mode"): `"checkpoint"` (`RecursiveCheckpointAdjoint`, the
+default) and `"forward"` (`ForwardMode`, for `jax.jacfwd`) give the exact derivative of the
+discrete solution; `"backsolve"` (`BacksolveAdjoint(throw=True)`) approximates it.
 
-- `"checkpoint"`, `diffrax.RecursiveCheckpointAdjoint()` (the default): reverse mode
-  through the solver's own steps, with recursive checkpointing. The gradient is the exact
-  derivative of the *discrete* solution the env produces, whatever the solver (explicit,
-  adaptive or implicit; the root finder of an implicit solver is differentiated
-  implicitly). It does not support forward mode.
-- `"forward"`, `diffrax.ForwardMode()`: forward mode through the solver's steps, for
-  `jax.jacfwd` / `jax.jvp`. Also the exact derivative of the discrete solution; cheap
-  when there are few inputs (a force, a few parameters) and many outputs.
-- `"backsolve"`, `diffrax.BacksolveAdjoint(throw=True)`: the continuous adjoint ODE,
-  solved backwards in time with the same solver. It is an *approximation* of the
-  gradient of the discrete solution (it approximates the continuous system's gradient
-  instead), with an error of the order of the solver's error. It reconstructs the state
-  backwards in time, which is unstable where the dynamics contract fast (stiff or
-  strongly dissipative systems): the backward solve then needs far more steps than the
-  forward one and exhausts `max_steps`. The env solves with `throw=False` (a failure is
-  reported in `info["solver_ok"]`, not raised), and a plain `diffrax.BacksolveAdjoint()`
-  passes that on to its backward solve, whose failure then yields a finite, wrong
-  gradient that nothing reports: 900 times too large on one step of
-  `make("VanDerPol", mu=1000, dt=1)` with Kvaerno5 (`tests/test_gradients.py`). The named
-  adjoint gives the backward solve `throw=True`, so that this failure raises; a plain
-  one warns (`warn_if_silent`). A backward solve that succeeds can still drift from the
-  forward trajectory (README, Gradients): prefer `"checkpoint"` on stiff dynamics.
+The `throw=True` is the numerical trap of this module: the env solves with `throw=False`
+(a failure is reported in `info["solver_ok"]`), a plain `BacksolveAdjoint()` passes that on
+to its backward solve, and a failed backward solve then yields a finite, wrong gradient
+that nothing reports (900 times too large on one step of `make("VanDerPol", mu=1000,
+dt=1)` with Kvaerno5, `tests/test_gradients.py`). The named adjoint raises instead; a plain
+one warns (`warn_if_silent`).
 
-Pick one with `with_adjoint(env, "forward")`, or build the scene with an `Integrator`:
-`CartPoleContinuous(integrator=make_integrator("tsit5", adjoint=diffrax.ForwardMode()))`.
-
-`jax.jacfwd` (or `jax.jvp`) of a rollout or step under `"checkpoint"` fails wherever the
-step runs diffrax's solve loop (an adaptive or implicit solver, `substeps > 1`, located
-contacts): that loop is a `custom_vjp`, which JAX refuses to push tangents through. JAX's
-own message ("can't apply forward-mode autodiff (jvp) to a custom_vjp function") names no
-fix; `rollout` and the env step re-raise it with the fix named (`forward_mode_hint`).
-Where the refusal surfaces outside them (`jax.jacfwd(jax.jit(loss))`: JAX differentiates
-the compiled function after tracing it), JAX's own message is all there is.
+JAX refuses forward mode through diffrax's solve loop (a `custom_vjp`) with a message that
+names no fix; `forward_mode_hint` re-raises it naming one.
 """
 
 import contextlib
@@ -56,14 +35,11 @@ when the adjoint does not say: see `sized_to_the_work`."""
 def sized_to_the_work(adjoint: diffrax.AbstractAdjoint, max_steps: int) -> diffrax.AbstractAdjoint:
     """`adjoint`, with a `RecursiveCheckpointAdjoint` that names no checkpoint count given `CHECKPOINTS`.
 
-    diffrax sizes the checkpoints of a solve by its step budget (about `sqrt(2 max_steps)`:
-    90 for the 4096 steps of an adaptive env step), and reverse mode allocates and carries all of
-    them whether the solve takes 2 steps or 4000. An env step of 0.02 s takes a handful, so 8
-    hold every step of a solve of up to 44 steps with no recomputation beyond one forward sweep
-    (Stumm and Walther's online schedule, `equinox.internal.while_loop`); a longer solve is
-    recomputed more, never wrong: the gradient is the same, to the last bit. Measured on
-    `CartPoleContinuous(integrator="tsit5")`, 64 envs x 100 steps: 81 MiB of XLA temp memory with
-    diffrax's count, 4 MiB with 4 checkpoints, at the same time (`benchmarks/gradient_cost.py`).
+    Why, and what it costs (Stumm and Walther's online schedule recomputes more beyond 44 steps,
+    with the same gradient to the last bit): docs/gradients.md, "Per solve". Measured on
+    `CartPoleContinuous(integrator="tsit5")`, 64 envs x 100 steps: 81 MiB of XLA temp memory
+    with diffrax's count (about `sqrt(2 max_steps)`), 4 MiB with 4 checkpoints, at the same
+    time (`benchmarks/gradient_cost.py`).
     """
     if type(adjoint) is diffrax.RecursiveCheckpointAdjoint and adjoint.checkpoints is None:
         return diffrax.RecursiveCheckpointAdjoint(checkpoints=min(CHECKPOINTS, max_steps))

@@ -174,8 +174,9 @@ class Integrator(eqx.Module):
             and isinstance(self.adjoint, (diffrax.RecursiveCheckpointAdjoint, diffrax.ForwardMode))
         )
 
-    def _term_and_first_step(self, vector_field, dt, t0, projection, velocity_indices):
-        """The term to solve and the first step `integrate` and `dense_states` both take."""
+    def _term_and_first_step(self, vector_field, y0, dt, t0, projection, velocity_indices):
+        """`dt` in `y0`'s dtype, the term to solve and the first step, as every solve here takes them."""
+        dt = jnp.asarray(dt, dtype=y0.dtype)
         vector_field = EpisodeTime(vector_field, jnp.asarray(t0, dtype=dt.dtype))
         # An adaptive controller picks its own first step (Hairer's heuristic). A first
         # trial step of the whole `dt` can overflow on a stiff problem, and the
@@ -183,9 +184,9 @@ class Integrator(eqx.Module):
         # every later step (Van der Pol, mu=1e3, dt=10: 0 of 4096 steps accepted).
         dt0 = dt / self.substeps if isinstance(self.stepsize_controller, diffrax.ConstantStepSize) else None
         if projection is None and velocity_indices is None:
-            return diffrax.ODETerm(vector_field), dt0
+            return dt, diffrax.ODETerm(vector_field), dt0
         optional = {} if projection is None else {"projection": projection}
-        return ProjectedODETerm(vector_field, velocity_indices=velocity_indices, **optional), dt0
+        return dt, ProjectedODETerm(vector_field, velocity_indices=velocity_indices, **optional), dt0
 
     def integrate(
         self,
@@ -214,8 +215,7 @@ class Integrator(eqx.Module):
         False when the solver failed (step budget exhausted, step size collapsed, root
         finder diverged) or the state is not finite; the state is then not to be used.
         """
-        dt = jnp.asarray(dt, dtype=y0.dtype)
-        term, dt0 = self._term_and_first_step(vector_field, dt, t0, projection, velocity_indices)
+        dt, term, dt0 = self._term_and_first_step(vector_field, y0, dt, t0, projection, velocity_indices)
         if self._single_step:
             return self._step_once(term, y0, u, dt, projection)
         solution = self._solve(term, y0, u, dt, dt0, adjoint=self.adjoint)
@@ -241,15 +241,11 @@ class Integrator(eqx.Module):
 
         Same solver, controller, first step and budget as `integrate`, so the same steps;
         between them the solver's interpolation: the methods' own for Tsit5, Dopri5 and
-        Dopri8, linear for the Euler methods, and cubic Hermite from the vector field at
-        both ends of each step for the other explicit Runge--Kutta methods, a user's
-        tableau included (`HermiteDenseOutput`: of the method's order up to four, where
-        diffrax's default slope at the step's end, its last stage, can lose orders). No
-        projection is applied to the interpolated states. Returns the states, shape
+        Dopri8, linear for the Euler methods, and `HermiteDenseOutput`'s for the other
+        explicit Runge--Kutta methods, a user's tableau included. No projection is applied to the interpolated states. Returns the states, shape
         `(len(ts), n)`, and whether the solve succeeded.
         """
-        dt = jnp.asarray(dt, dtype=y0.dtype)
-        term, dt0 = self._term_and_first_step(vector_field, dt, t0, projection, velocity_indices)
+        dt, term, dt0 = self._term_and_first_step(vector_field, y0, dt, t0, projection, velocity_indices)
         solver = self.solver
         if needs_hermite_dense_output(solver):
             solver = HermiteDenseOutput(solver)
@@ -268,10 +264,9 @@ class Integrator(eqx.Module):
         projection of one). For a study's failed row (`lerax_like.analysis`), not for a
         hot loop: it runs eagerly, once.
         """
-        dt = jnp.asarray(dt, dtype=y0.dtype)
         projection = options.get("projection")
-        term, dt0 = self._term_and_first_step(
-            vector_field, dt, options.get("t0", 0.0), projection, options.get("velocity_indices")
+        dt, term, dt0 = self._term_and_first_step(
+            vector_field, y0, dt, options.get("t0", 0.0), projection, options.get("velocity_indices")
         )
         solution = self._solve(term, y0, u, dt, dt0, adjoint=self.adjoint)
         assert solution.ys is not None  # saved at t1

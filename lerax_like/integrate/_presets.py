@@ -2,7 +2,7 @@
 
 import dataclasses
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from typing import Any, Protocol
+from typing import Protocol
 
 import diffrax
 import equinox as eqx
@@ -136,13 +136,16 @@ class SolverTable(Mapping[str, SolverPreset]):
     """The solver presets by name, in registration order: the built-in ones and the user's.
 
     `find(name)` is the one lookup by name (any case), with the one message for a name
-    the table does not hold; `names` follows additions and removals.
+    the table does not hold; `names` are the names as they are now.
     """
 
     def __init__(self, presets: Sequence[SolverPreset]):
         self._presets = {p.name: p for p in presets}
         self.builtin = frozenset(self._presets)
-        self.names: Sequence[str] = PresetNames(self._presets)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(self._presets)
 
     def __getitem__(self, name: str) -> SolverPreset:
         return self._presets[name]
@@ -187,26 +190,8 @@ class SolverTable(Mapping[str, SolverPreset]):
         return None
 
 
-class PresetNames(Sequence[str]):
-    """The names of a `SolverTable`, in registration order; follows additions and removals."""
-
-    def __init__(self, presets: Mapping[str, SolverPreset]):
-        self._presets = presets
-
-    def __getitem__(self, index):
-        return tuple(self._presets)[index]
-
-    def __len__(self) -> int:
-        return len(self._presets)
-
-    def __repr__(self) -> str:
-        return repr(tuple(self._presets))
-
-
 SOLVERS = SolverTable(_builtin_presets())
 """Every solver preset by name, the built-in ones and those added by `register_solver`."""
-
-"""Names accepted wherever a solver is: `make_integrator("rk4")`, `CartPole(integrator="tsit5")`."""
 
 
 def register_solver(

@@ -2,17 +2,10 @@
 
 Those envs are not a pure ODE step. They update the velocity, clip it, update the
 position with the new velocity, then clip the position (and, for MountainCar, stop the
-car at the left wall). Both parts are expressed here generally:
-
-- `ProjectedODETerm` is a `diffrax.ODETerm` that also carries `velocity_indices` (which
-  components of the state are velocities; the others are positions) and a `projection`
-  onto the admissible states (speed limits, walls, angle wrapping). Every diffrax solver
-  reads it as the plain `ODETerm` it is; the `Integrator` applies `projection` after the
-  step, whatever the solver.
-- `SemiImplicitEuler` updates the velocities with the vector field at the start of the
-  step, projects, updates the positions with the vector field at the new velocities, and
-  projects again. With the projection of each scene this reproduces Gymnasium's update
-  to the last few ulps.
+car at the left wall): `SemiImplicitEuler` on a `ProjectedODETerm`, which every other
+diffrax solver reads as the plain `ODETerm` it is (the `Integrator` applies the projection
+after their step). With each scene's projection this reproduces Gymnasium's update to the
+last few ulps.
 """
 
 from collections.abc import Callable
@@ -100,6 +93,3 @@ class SemiImplicitEuler(diffrax.AbstractSolver):
 
     def func(self, terms, t0, y0, args):
         return terms.vf(t0, y0, args)
-
-
-__all__ = ["ProjectedODETerm", "SemiImplicitEuler"]

@@ -29,7 +29,6 @@ class AbstractDynamics(AbstractParametrised):
     @abc.abstractmethod
     def vector_field(self, t: ScalarLike, y: State, u: Input) -> State:
         """The time derivative of the state `y` under the physical input `u`."""
-        raise NotImplementedError
 
 
 def require_attributes(addon: object, dynamics: AbstractDynamics, names: tuple[str, ...], purpose: str) -> None:
@@ -48,7 +47,6 @@ class AbstractConservativeDynamics(AbstractDynamics):
     @abc.abstractmethod
     def energy(self, y: State) -> Scalar:
         """Total mechanical energy of the state `y`."""
-        raise NotImplementedError
 
     @property
     def conserves_energy(self) -> bool:
@@ -72,11 +70,9 @@ class AbstractChainDynamics(AbstractConservativeDynamics):
     @abc.abstractmethod
     def coordinates(self, y: State) -> tuple[Float[Array, " q"], Float[Array, " q"]]:
         """The generalised coordinates `q` and their rates `q_dot` in the state `y`."""
-        raise NotImplementedError
 
     @abc.abstractmethod
     def forced_vector_field(
         self, t: ScalarLike, y: State, u: Input, generalised_force: Float[Array, " q"]
     ) -> State:
         """`vector_field` with the extra generalised force `Q` on `q` added to the input's."""
-        raise NotImplementedError

@@ -40,7 +40,6 @@ class AcrobotDynamics(AbstractConservativeDynamics):
         # The NeurIPS variant drops a Coriolis term: its `energy` is not conserved.
         return self.equations == "book"
 
-
     def _mass_matrix(self, theta_2: Scalar) -> tuple[Scalar, Scalar, Scalar]:
         m1, m2 = self.link_mass_1, self.link_mass_2
         l1, lc1, lc2 = self.link_length_1, self.link_com_position_1, self.link_com_position_2

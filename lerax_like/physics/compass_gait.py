@@ -8,8 +8,7 @@ import jax.numpy as jnp
 
 from .._fields import POSITIVE
 from .._types import Array, Float, Input, Scalar, ScalarLike, State
-from .simplest_walker import SLOPE
-from .walker import AbstractWalkerDynamics, swing_gap
+from .walker import SLOPE, AbstractWalkerDynamics, swing_gap
 
 
 @final

@@ -7,18 +7,11 @@ state reaches one of them moving in. The step (`lerax_like.hybrid`) integrates s
 segment, stops at the first located zero of a gap, applies the map and goes on; a scene
 built without contacts carries and computes none of it.
 
-- `AbstractContact`: any condition and any map, a scene's own (a heel strike that swaps
-  the stance leg, a switch of a non-mechanical mode). Subclasses implement `gaps` and
-  `impact`.
-- `AbstractImpulseContact`: the mechanical contact of rigid bodies. Its map is the
-  impulse-consistent one: the velocities jump by `M(q) dq_dot = J^T lambda` with
-  `J = dg/dq`, chosen so that `J q_dot+ = -e J q_dot-` (restitution `e` in [0, 1]) along
-  the contact normal, which is how a cart hitting a wall changes its pole's angular
-  velocity too. `M(q)` is read off the dynamics' energy (the Hessian of the kinetic
-  energy in the velocities), so any dynamics with `coordinates` and `energy` takes it.
-  Below `min_rebound_speed` the contact comes to rest: the impact is plastic and the
-  surface becomes a constraint whose force holds the state on it, released when that
-  force reaches zero (the rule that ends a ball's Zeno sequence of bounces).
+`AbstractContact` takes any condition and any map (a heel strike that swaps the stance
+leg, a switch of a non-mechanical mode); `AbstractImpulseContact` is the mechanical contact
+of rigid bodies, whose map is the impulse-consistent one (`set_normal_speed`: a cart
+hitting a wall changes its pole's angular velocity too), with rest below
+`min_rebound_speed` (`resting_force`: the rule that ends a ball's Zeno sequence of bounces).
 
 Gradients through an impact are the true derivatives of the hybrid flow, event time
 included; near a grazing contact (normal speed `v_n -> 0`) they grow like `1 / v_n`:
@@ -70,12 +63,10 @@ class AbstractContact(AbstractParametrised):
     @abc.abstractmethod
     def gaps(self, dynamics: AbstractDynamics, y: State) -> Float[Array, " k"]:
         """The gap to each surface in the state `y` (>= 0 admissible)."""
-        raise NotImplementedError
 
     @abc.abstractmethod
     def impact(self, dynamics: AbstractDynamics, y: State, surface: int) -> State:
         """The state just after an impact on `surface` (a Python int) in the state `y`."""
-        raise NotImplementedError
 
     def check(self, dynamics: AbstractDynamics) -> None:
         """Refuse, naming both, dynamics this contact cannot act on (nothing by default)."""

@@ -42,12 +42,10 @@ class AbstractGeneralisedForce(AbstractParametrised):
     @abc.abstractmethod
     def generalised_force(self, dynamics: AbstractChainDynamics, y: State) -> Float[Array, " q"]:
         """The force on the generalised coordinates `q` of `dynamics` in the state `y`."""
-        raise NotImplementedError
 
     @abc.abstractmethod
     def potential_energy(self, dynamics: AbstractChainDynamics, y: State) -> Scalar:
         """The potential energy of the force in the state `y` (0 for a force without one)."""
-        raise NotImplementedError
 
     def check(self, dynamics: AbstractDynamics) -> None:
         """Refuse, with a `ValueError` naming both, dynamics this add-on cannot act on."""

@@ -24,7 +24,6 @@ class MountainCarDynamics(AbstractConservativeDynamics):
 
     gravity: Scalar = eqx.field(default=0.0025, converter=POSITIVE)
 
-
     def vector_field(self, t: ScalarLike, y: State, u: Input) -> State:
         del t
         position, velocity = y

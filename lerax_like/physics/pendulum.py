@@ -24,7 +24,6 @@ class PendulumDynamics(AbstractConservativeDynamics):
     mass: Scalar = eqx.field(default=1.0, converter=POSITIVE)  # kg
     length: Scalar = eqx.field(default=1.0, converter=POSITIVE)  # m
 
-
     def vector_field(self, t: ScalarLike, y: State, u: Input) -> State:
         del t
         theta, theta_dot = y

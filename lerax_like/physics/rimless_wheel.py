@@ -7,16 +7,12 @@ import numpy as np
 from .._fields import POSITIVE, Range, option
 from .._types import Array, BoolScalar, Float, Input, Scalar, ScalarLike, State
 from .contact import AbstractContact
-from .walker import AbstractWalkerDynamics
+from .walker import SLOPE, AbstractWalkerDynamics
 
 # Two neighbouring spokes must not both be downhill of the hub, or no stance exists.
 HALF_ANGLE = Range(
     "in (0, pi/2) (allowed range (0, pi/2); pi / number of spokes)",
     lambda a: bool(np.all(np.isfinite(a)) and np.all((a > 0) & (a < np.pi / 2))),
-)
-SLOPE = Range(
-    "in [0, pi/2) (allowed range [0, pi/2), radians downhill)",
-    lambda a: bool(np.all(np.isfinite(a)) and np.all((a >= 0) & (a < np.pi / 2))),
 )
 
 

@@ -4,16 +4,9 @@ from typing import ClassVar, final
 
 import equinox as eqx
 import jax.numpy as jnp
-import numpy as np
 
-from .._fields import Range
 from .._types import Input, Scalar, ScalarLike, State
-from .walker import AbstractWalkerDynamics, swing_gap
-
-SLOPE = Range(
-    "in [0, pi/2) (allowed range [0, pi/2), radians downhill)",
-    lambda a: bool(np.all(np.isfinite(a)) and np.all((a >= 0) & (a < np.pi / 2))),
-)
+from .walker import SLOPE, AbstractWalkerDynamics, swing_gap
 
 
 @final

@@ -30,7 +30,6 @@ class VanDerPolDynamics(AbstractDynamics):
     # mu = 0 is the harmonic oscillator, a valid (if not very interesting) limit.
     mu: Scalar = eqx.field(default=1.0, converter=NONNEGATIVE)
 
-
     def vector_field(self, t: ScalarLike, y: State, u: Input) -> State:
         del t
         x, v = y

@@ -11,11 +11,17 @@ from typing import final
 
 import equinox as eqx
 import jax.numpy as jnp
+import numpy as np
 
-from .._fields import option
+from .._fields import Range, option
 from .._types import Array, Float, Scalar, State
 from ._base import AbstractDynamics
 from .contact import AbstractContact
+
+SLOPE = Range(
+    "in [0, pi/2) (allowed range [0, pi/2), radians downhill)",
+    lambda a: bool(np.all(np.isfinite(a)) and np.all((a >= 0) & (a < np.pi / 2))),
+)
 
 
 class AbstractWalkerDynamics(AbstractDynamics):
@@ -26,22 +32,18 @@ class AbstractWalkerDynamics(AbstractDynamics):
     @abc.abstractmethod
     def front_gap(self, y: State) -> Scalar:
         """Positive during a step, zero at the next heel strike (and decreasing through it)."""
-        raise NotImplementedError
 
     @abc.abstractmethod
     def heel_strike(self, y: State) -> State:
         """The state just after the swing foot lands in the state `y`: it is the new stance foot."""
-        raise NotImplementedError
 
     @abc.abstractmethod
     def stance_angle(self, y: State) -> Scalar:
         """The stance leg's angle from the slope's normal, positive with the hip downhill of the foot."""
-        raise NotImplementedError
 
     @abc.abstractmethod
     def hip_speed(self, y: State) -> Scalar:
         """The hip's velocity along the slope, positive downhill."""
-        raise NotImplementedError
 
 
 def swing_gap(stance: Scalar, gap: Scalar, gap_rate: Scalar) -> Scalar:

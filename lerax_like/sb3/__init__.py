@@ -35,12 +35,8 @@ def make_vec_env(env_id: str, n_envs: int = 1, seed: int | None = None, **option
     episode statistics in the infos (`MonitoredVecEnv`, SB3's `VecMonitor` that answers
     `env_is_wrapped(Monitor)` with True as SB3's monitored envs do; writing to `monitor_dir` if given;
     `monitor_kwargs` may hold `info_keywords`). The result steps as SB3's `DummyVecEnv` of
-    `gymnasium.make(env_id)` envs (see `CompiledVecEnv`). `dtype` is the precision of the
-    step (`"float64"`, Gymnasium's, or `"float32"`). `inline_dispatch` (True by default)
-    makes JAX run its CPU computations in the calling thread if JAX has not started its
-    CPU client yet: a setting of JAX's for the whole process, which spares each step a
-    hand-off to another thread and changes no number (see `CompiledVecEnv`; False leaves
-    JAX's setting as it is).
+    `gymnasium.make(env_id)` envs (see `CompiledVecEnv`, also for `inline_dispatch`). `dtype`
+    is the precision of the step (`"float64"`, Gymnasium's, or `"float32"`).
 
     Not supported, as they act on single envs: `wrapper_class`/`wrapper_kwargs` (wrap the
     result in an SB3 `VecEnvWrapper` instead) and `vec_env_cls`/`vec_env_kwargs` (the

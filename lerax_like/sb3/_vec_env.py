@@ -135,31 +135,21 @@ class CompiledVecEnv(VecEnv):
 
     One step is one compiled call of all envs, restarts included (`Batch.advance_then_restart`):
     each env's next start is drawn from its generator on the host when its episode starts,
-    so the step that ends the episode restarts the env at once. After `np_random` (or
-    `generators`) has been handed out, anyone may draw from the generators, so from then on
-    a start is drawn when the env restarts, and the restart is a second call. Actions
-    that cannot be applied are refused with a `ValueError` naming them, and nothing steps.
+    so the step that ends the episode restarts the env at once (until the generators are
+    handed out: `generators`). Actions that cannot be applied are refused with a
+    `ValueError` naming them, and nothing steps.
 
     `get_attr`, `set_attr` and `env_method` act on each env's `EnvView`, as `DummyVecEnv`'s
-    act on each env: Gymnasium's attributes of the id (`masspole`, `goal_velocity`, ...)
-    read and write that env's own scene, so `set_attr("masspole", 0.2, indices=[1])`
-    changes env 1's physics alone (the batch then steps with one parameter row per env,
-    still one compiled call). Unlike `DummyVecEnv` over Gymnasium's env, where `set_attr`
-    sets the attribute on the outer `Monitor` wrapper and leaves the physics as it was
-    (only `env_method("set_wrapper_attr", ...)` reaches the env), `set_attr` here reaches
-    the physics, as the brief of an SB3 user asks.
+    act on each env: `set_attr("masspole", 0.2, indices=[1])` changes env 1's physics alone
+    (one parameter row per env, still one compiled call), where `DummyVecEnv`'s stops at
+    the outer `Monitor` (docs/gymnasium.md).
 
     `render_mode` is None, `"rgb_array"` (SB3's `render()` tiles the envs' frames) or
     `"human"` (every reset and step shows the envs, tiled in one pygame window).
 
-    `inline_dispatch` (True by default) makes JAX run its CPU computations in the calling
-    thread (`jax_cpu_enable_async_dispatch` False) if JAX has not started its CPU client
-    yet, as it has not when this env is the process's first JAX work (`inline_cpu_dispatch`).
-    Every step waits for its result at once, so JAX's default asynchronous dispatch
-    only adds a hand-off to another thread and back, which at 8 envs costs as much as the
-    step itself: this is what makes the VecEnv as fast as SB3's `DummyVecEnv` at 8 envs
-    (docs/performance.md). The setting is JAX's, for the whole process, and changes no
-    number; False leaves it as it is.
+    `inline_dispatch` (True by default) calls `inline_cpu_dispatch` first: what makes the
+    VecEnv as fast as SB3's `DummyVecEnv` at 8 envs (docs/performance.md); it changes no
+    number, and False leaves JAX's setting as it is.
     """
 
     # The vector env's single action space, as `to_gymnasium_space` builds it (SB3 declares any `Space`).
@@ -422,14 +412,6 @@ class MonitoredVecEnv(VecMonitor):
         return self.venv.env_is_wrapped(wrapper_class, indices)
 
 
-_UNSUPPORTED = {
-    "wrapper_class": "wrap the returned VecEnv in an SB3 VecEnvWrapper instead",
-    "wrapper_kwargs": "wrap the returned VecEnv in an SB3 VecEnvWrapper instead",
-    "vec_env_cls": "the batch is one compiled step, not a DummyVecEnv or SubprocVecEnv",
-    "vec_env_kwargs": "the batch is one compiled step, not a DummyVecEnv or SubprocVecEnv",
-}
-
-
 def make_vec_env(
     env_id: str,
     n_envs: int = 1,
@@ -446,11 +428,14 @@ def make_vec_env(
     inline_dispatch: bool = True,
 ) -> VecEnv:
     """See `lerax_like.sb3.make_vec_env`."""
-    given = {"wrapper_class": wrapper_class, "wrapper_kwargs": wrapper_kwargs, "vec_env_cls": vec_env_cls,
-             "vec_env_kwargs": vec_env_kwargs}
-    for name, value in given.items():
+    for name, value, instead in (
+        ("wrapper_class", wrapper_class, "wrap the returned VecEnv in an SB3 VecEnvWrapper instead"),
+        ("wrapper_kwargs", wrapper_kwargs, "wrap the returned VecEnv in an SB3 VecEnvWrapper instead"),
+        ("vec_env_cls", vec_env_cls, "the batch is one compiled step, not a DummyVecEnv or SubprocVecEnv"),
+        ("vec_env_kwargs", vec_env_kwargs, "the batch is one compiled step, not a DummyVecEnv or SubprocVecEnv"),
+    ):
         if value:
-            raise ValueError(f"{name} is not supported by lerax_like.sb3.make_vec_env: {_UNSUPPORTED[name]}")
+            raise ValueError(f"{name} is not supported by lerax_like.sb3.make_vec_env: {instead}")
     if not isinstance(n_envs, int) or n_envs < 1:
         raise ValueError(f"n_envs must be an integer >= 1, got {n_envs!r}")
     monitor_kwargs = dict(monitor_kwargs or {})
@@ -467,6 +452,3 @@ def make_vec_env(
         os.makedirs(monitor_dir, exist_ok=True)
         filename = os.path.join(monitor_dir, str(start_index))
     return MonitoredVecEnv(venv, filename=filename, **monitor_kwargs)
-
-
-__all__ = ["CompiledVecEnv", "EnvView", "MonitoredVecEnv", "inline_cpu_dispatch", "make_vec_env"]

@@ -141,6 +141,3 @@ def _field_of(addon: type) -> str:
     if issubclass(addon, AbstractCoulombFriction):
         return "friction"
     return "forces"
-
-
-__all__ = ["INTEGRATOR_KEYWORDS", "flat_keywords", "make", "refuse_unknown"]

@@ -60,6 +60,3 @@ def register_scene(scene: _Scene) -> _Scene:
         )
     _SCENES[name] = scene
     return scene
-
-
-__all__ = ["SCENES", "is_abstract_scene", "register_scene"]

@@ -43,6 +43,3 @@ class AbstractWalkerEnv(AbstractUnitActionEnv):
     def terminal(self, state: EnvState, *, key: Key | None) -> BoolScalar:
         del key
         return jnp.abs(cast(AbstractWalkerDynamics, self.dynamics).stance_angle(state.y)) >= self.fall_angle
-
-
-__all__ = ["AbstractWalkerEnv"]

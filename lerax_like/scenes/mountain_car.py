@@ -68,7 +68,6 @@ class AbstractMountainCar(AbstractEnv):
             )
 
 
-
 @register_scene
 @final
 class MountainCar(AbstractMountainCar):
