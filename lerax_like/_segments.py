@@ -352,16 +352,3 @@ def integrate_hybrid(
         plural = kind + ("es" if kind.endswith(("s", "sh", "ch", "x")) else "s")  # impacts, switches
         info |= {plural: count, f"first_{kind}_time": first}
     return y, info
-
-
-__all__ = [
-    "IDLE_FRACTION",
-    "AbstractModes",
-    "GrazingGuardController",
-    "SegmentEnd",
-    "Settled",
-    "TimeBisection",
-    "hermite_dip",
-    "integrate_hybrid",
-    "segment_solver",
-]

@@ -68,6 +68,3 @@ class AbstractReachEnv(AbstractUnitActionEnv):
     @property
     def worst_reward(self) -> Scalar:
         return -self.action_cost * jnp.ones((), self.dt.dtype)
-
-
-__all__ = ["AbstractReachEnv", "AbstractUnitActionEnv"]
