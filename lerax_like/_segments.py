@@ -349,7 +349,7 @@ def integrate_hybrid(
         ok = ok & passed
     info = {"solver_ok": ok, "solver_steps": steps, "solver_rejected_steps": rejected, **checks}
     for kind, count, first in zip(modes.kinds, counts, firsts):
-        info |= {f"{kind}s": count, f"first_{kind}_time": first}
+        info |= {kind + ("es" if kind.endswith("ch") else "s"): count, f"first_{kind}_time": first}  # switches
     return y, info
 
 
