@@ -1,19 +1,18 @@
 """SciPy reference solutions of a hybrid scene: each mode solved by `solve_ivp`, each guard an event.
 
-For a scene whose step is a hybrid system other than plain impacts (`env.modes(t0)`, a
-`lerax_like._segments.AbstractModes`: Coulomb stick-slip, contacts with friction, the disk on
-its floor), the studies' reference integrates each env step mode by mode, as `hybrid_reference`
-does through plain impacts: `solve_ivp` (DOP853 by default) in the mode's vector field, every
-guard a terminal event (falling through zero), restarted at the earliest located one, where the
-system's own `settle`, told which guard fired, applies its reset (an impact map, a switch) and
-chooses the next mode. The modes, fields, guards and resets are the package's; what is
-independent is the integrator and the event location (and the references typed from the
-equations in `tests/test_rolling_disk.py` and `tests/test_contact_friction.py` check this one).
-A guard that starts at zero and rises (the switch just taken) is no event for SciPy (a falling
-crossing needs a value >= 0 before and <= 0 after).
+For a scene whose step is a hybrid system other than plain impacts (`env.modes(t0)`: Coulomb
+stick-slip, contacts with friction, the disk on its floor), the studies' reference integrates
+each env step mode by mode, as `hybrid_reference` does through plain impacts: `solve_ivp`
+(DOP853 by default) in the mode's vector field, every guard a terminal event (falling through
+zero), restarted at the earliest located one, where the system's own `settle`, told which guard
+fired, applies its reset (an impact map, a switch) and picks the next mode. The modes, guards and
+resets are the package's; the integrator and the event location are SciPy's (the references
+typed from the equations in `tests/test_rolling_disk.py` and `tests/test_contact_friction.py`
+check this one). A guard that starts at zero and rises (the switch just taken) is no event for
+SciPy (a falling crossing needs a value >= 0 before and <= 0 after).
 
-`modes_reference_gradient` differentiates a loss of these reference trajectories by central
-differences: the gradient study's reference for such a scene, which owes nothing to automatic
+`modes_reference_gradient` differentiates a loss of these trajectories by central differences:
+the gradient study's reference for such a scene, which owes nothing to automatic
 differentiation or to diffrax's root find.
 """
 
@@ -21,18 +20,20 @@ from collections.abc import Callable
 from typing import Any, NamedTuple
 
 import equinox as eqx
+import jax
+import jax.numpy as jnp
 import numpy as np
+from jax.flatten_util import ravel_pytree
 
+from ..gradients import selection_spec
 from ..hybrid import Surfaces
+from .hybrid_reference import segmented_trajectories
+from .reference import scipy_solve_ivp
 
 
 class ModesStep(NamedTuple):
-    """One env step of the reference: the state at its end, the located events, the segments.
-
-    `events` holds `(time in the step, which guard fell)`, the guard's index in the system's
-    `guards` (for `FrictionModes`: `SLIP_ENDS`, `NORMAL_FLIPS`, `RELEASE`, `INCONSISTENT`);
-    `segments` each segment's `solve_ivp` solution (dense if asked).
-    """
+    """One env step of the reference: its end state `y`; its `events`, each `(time in the step, index
+    of the guard that fell in the system's guards)`; each segment's `solve_ivp` solution."""
 
     y: np.ndarray
     events: list[tuple[float, int]]
@@ -58,9 +59,6 @@ def _settle(modes, t, y, u, mode, fired):
 
 def reference_modes(env, t0: float = 0.0):
     """`env.modes(t0)` (its hybrid system at the episode's time `t0`), its arrays in float64."""
-    import jax
-    import jax.numpy as jnp
-
     env = jax.tree.map(lambda leaf: jnp.asarray(leaf, jnp.float64) if eqx.is_inexact_array(leaf) else leaf, env)
     return env.modes(t0)
 
@@ -83,9 +81,7 @@ def modes_reference_step(
     Painleve's case; a rest the step does not model), a failed solve, or more events than
     its `max_events` raise `RuntimeError`: a reference never hides a failure.
     """
-    import jax.numpy as jnp
-
-    solve_ivp = _solve_ivp()
+    solve_ivp = scipy_solve_ivp()
     u = jnp.asarray(u, jnp.float64)
     y = jnp.asarray(y0, jnp.float64)
     mode = modes.initial_mode(y)
@@ -131,41 +127,22 @@ def modes_reference_step(
     raise RuntimeError(f"modes reference: more than {modes.max_events} events in one step")
 
 
-def _solve_ivp():
-    from .reference import scipy_solve_ivp
-
-    return scipy_solve_ivp()
-
-
 def modes_reference_trajectories(
     env, y0s, inputs, dt: float, fractions, *, method: str = "DOP853", rtol: float = 1e-13, atol: float = 1e-13,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """As `dense_reference_trajectories`, through the located events of the env's hybrid system.
-
-    One `modes_reference_step` per initial state and env step (the input held over the
-    step, the field read at the episode's time `k dt + s`). Returns the states after each
-    env step `(B, T, n)` and at `fractions` of each step `(B, T, len(fractions), n)`, from
-    the segment covering each time.
-    """
-    import jax
-
-    y0s = np.asarray(y0s, dtype=np.float64)
-    inputs = np.asarray(inputs, dtype=np.float64)
-    fractions = np.asarray(fractions, dtype=np.float64)
-    states = np.empty((len(y0s), len(inputs), y0s.shape[1]))
-    inside = np.empty((len(y0s), len(inputs), len(fractions), y0s.shape[1]))
+    """As `dense_reference_trajectories`, through the located events of the env's hybrid system:
+    one `modes_reference_step` per initial state and env step (the field read at the episode's
+    time `k dt + s`), as `segmented_trajectories` returns them."""
     with jax.enable_x64(True):
         steps = [reference_modes(env, np.float64(k) * np.float64(dt)) for k in range(len(inputs))]
-        for b, y in enumerate(y0s):
-            for k, u in enumerate(inputs):
-                step = modes_reference_step(
-                    steps[k], y, u, dt, method=method, rtol=rtol, atol=atol, dense_output=len(fractions) > 0
-                )
-                for j, time in enumerate(fractions * dt):
-                    segment = next(s for s in step.segments if s.t[0] <= time <= s.t[-1])
-                    inside[b, k, j] = segment.sol(time)
-                y = states[b, k] = step.y
-    return states, inside
+
+        def step(k: int, y, u):
+            solved = modes_reference_step(
+                steps[k], y, u, dt, method=method, rtol=rtol, atol=atol, dense_output=len(fractions) > 0
+            )
+            return solved.y, solved.segments
+
+        return segmented_trajectories(step, y0s, inputs, dt, fractions)
 
 
 def modes_reference_gradient(
@@ -184,12 +161,6 @@ def modes_reference_gradient(
     A step that the reference cannot take (a perturbed parameter that reaches Painleve's
     case) raises `RuntimeError`.
     """
-    import jax
-    import jax.numpy as jnp
-    from jax.flatten_util import ravel_pytree
-
-    from ..gradients import selection_spec
-
     inputs = np.asarray(inputs, dtype=np.float64)
     with jax.enable_x64(True):
         params, static = eqx.partition(env, selection_spec(env, where))
