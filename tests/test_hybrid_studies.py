@@ -66,14 +66,17 @@ def _study(scene, keywords, solvers, substeps, horizon, out):
 
 @pytest.mark.slow
 def test_study_of_the_rolling_disk_converges_at_the_solvers_order(tmp_path):
-    rows, record = _study("RollingDisk", {}, ("euler", "rk4"), ("16", "64"), 8, tmp_path)
+    # At 256 substeps a rolling disk drifted off x_dot = r angle_dot by 1e-13 within a step, once read
+    # as a slip at the next step's start: Euler's and RK4's max_error were 0.27 (floor_contact).
+    rows, record = _study("RollingDisk", {}, ("euler", "rk4"), ("16", "64", "256"), 12, tmp_path)
     env = ll.make("RollingDisk")
     for schedule in ("recorded", "zero"):
         assert _events(env, record, schedule)[1] >= 1, "the disks must skid, then roll"
-        coarse, fine = (float(rows[schedule, "euler", n]["error"]) for n in (16, 64))
-        assert 2.5 < coarse / fine < 6  # first order: a quarter of the step, a quarter of the error
+        errors = [float(rows[schedule, "euler", n]["max_error"]) for n in (16, 64, 256)]
+        # First order: a quarter of the step, a quarter of the error.
+        assert all(2.5 < coarse / fine < 6 for coarse, fine in zip(errors, errors[1:])), errors
         # Constant accelerations between located switches: RK4 is exact to round-off.
-        assert float(rows[schedule, "rk4", 16]["max_error"]) < 1e-12
+        assert all(float(rows[schedule, "rk4", n]["max_error"]) < 1e-12 for n in (16, 64, 256))
     for row in rows.values():
         assert row["solver_ok"] == "True" and float(row["reference_floor"]) < 1e-11
         assert row["energy_drift"] in ("", "nan")  # the floor's friction takes energy by physics
