@@ -139,7 +139,7 @@ def gradient_work_precision(
     solve failed. `g_ref` is computed with `reference_integrator(reference_rtol)` by
     forward mode (exact for the discrete reference solution, and its compilation is the
     cheaper); its floor estimates its own error. Given an `independent` reference instead
-    (`gradient`, flattened as the selection, and its `floor`: a scene with friction takes
+    (`gradient`, flattened as the selection, and its `floor`: a hybrid scene takes
     `modes_reference_gradient`'s), the errors are against it, and Dopri8's own error
     against it is recorded as `dopri8_discrepancy`.
 
@@ -262,7 +262,7 @@ class GradientStudyConfig:
     - `horizon`: env steps of the rollout; `seed`: draws the initial state from
       `env.initial` and the actions from the action space, unless `initial_state`,
       `actions` are given.
-    - `parameters`: names of fields of `env.dynamics` (or of a friction add-on) to
+    - `parameters`: names of fields of `env.dynamics` (or of a friction add-on, a floor) to
       differentiate with respect to (`None`: all of them, the physical parameters); the
       record's `parameter_names` lists them in the env's leaf order, the gradient's.
     - `cost`: the loss of the trajectory `ys` (default `mean_squared_state`).
