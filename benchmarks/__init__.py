@@ -120,6 +120,10 @@ BENCHMARKS = {
         Benchmark("contact", "located walls against penalty end stops: throughput and accuracy against SciPy", (_STUDY, _PLOTS)),
         Benchmark("friction", "located stick-slip against tanh-regularised friction at matched stop distance: forward and gradient cost"),
         Benchmark(
+            "frictional_contact",
+            "a disk launched sliding: located frictional contact against tanh friction and a penalty floor",
+        ),
+        Benchmark(
             "friction_bias", "the pathwise gradient's bias through friction: located stick-slip against tanh at three sharpnesses",
             (_PLOTS,),
         ),

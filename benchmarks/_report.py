@@ -782,6 +782,43 @@ def friction(folder, link):
     return lines
 
 
+def frictional_contact(folder, link):
+    rows = _read_csv(folder, "frictional_contact.csv")
+    if rows is None:
+        return []
+    table = [
+        [row["model"], _g(row["position_error"]),
+         _g(row["derivative_error"]) if float(row["derivative_finite_fraction"]) == 1 else
+         f"not finite ({_g(row['derivative_finite_fraction'])} finite)", _g(row["solver_steps_per_env"]),
+         _duration(row["forward_s"]), _duration(row["value_and_grad_s"]), _g(row["gradient_over_forward"]),
+         _g(row["gradient_compile_s"]), _g(float(row["gradient_temp_bytes"]) / 2**20), _g(row["solver_ok_fraction"])]
+        for row in rows
+    ]
+    lines = [
+        f"N = {rows[0]['envs']} vmapped disks launched sliding at 2 m/s, mu_k from 0.25 to 0.75, {rows[0]['steps']} "
+        "steps of 0.05 s; errors are the largest absolute errors of x(T) (m) and dx(T)/dmu (m) against the closed "
+        "forms; steps per disk over the rollout; times the median of the interleaved repeats (one call where a "
+        "call takes over 30 s); compile in s; memory XLA's temporaries of the compiled value and gradient (MiB).", "",
+    ]
+    lines += _table(["model", "x(T) error", "dx/dmu error", "steps", "forward", "value and gradient",
+                     "gradient / forward", "gradient compile", "gradient MiB", "solver_ok"], table)
+    located = rows[0]
+    ratios = [f"{row['model']} {float(row['forward_s']) / float(located['forward_s']):.3g}x forward, "
+              f"{float(row['value_and_grad_s']) / float(located['value_and_grad_s']):.3g}x value and gradient"
+              for row in rows[1:]]
+    lines += ["Each model's time over the located model's (reverse mode): " + "; ".join(ratios) + ".", ""]
+    scale = _read_csv(folder, "frictional_contact_scale.csv")
+    if scale:
+        lines += _table(
+            ["workload", "envs", "steps", "forward", "value and gradient", "gradient / forward", "gradient compile (s)",
+             "gradient MiB", "solver_ok"],
+            [[row["workload"], row["envs"], row["steps"], _duration(row["forward_s"]), _duration(row["value_and_grad_s"]),
+              _g(row["gradient_over_forward"]), _g(row["gradient_compile_s"]),
+              _g(float(row["gradient_temp_bytes"]) / 2**20), _g(row["solver_ok_fraction"])] for row in scale],
+        )
+    return lines
+
+
 def friction_bias(folder, link):
     rows = _read_csv(folder, "friction_bias.csv")
     if rows is None:
@@ -830,6 +867,7 @@ SECTIONS = {
     "contact": contact,
     "render": render,
     "friction": friction,
+    "frictional_contact": frictional_contact,
     "friction_bias": friction_bias,
     "sharded_rollout": sharded_rollout,
 }
@@ -882,7 +920,10 @@ def render(folder: pathlib.Path, link: str, quick: bool) -> str:
 
 # Docs pages that show a benchmark's table between `<!-- NAME table: ... -->` and
 # `<!-- end of the NAME table -->`: rewritten with RESULTS.md, so that the page and the record agree.
-DOCS_TABLES = {"gradient_cost": HERE.parent / "docs" / "gradients.md"}
+DOCS_TABLES = {
+    "gradient_cost": HERE.parent / "docs" / "gradients.md",
+    "frictional_contact": HERE.parent / "docs" / "friction.md",
+}
 
 
 def _write_docs_tables(folder) -> None:

@@ -3,7 +3,7 @@
     lerax-like study CartPole [--quick] [--out DIR] [--solver NAME ...] [--substeps N ...]
     lerax-like study mymodule:MyScene --quick        (a scene class from the working directory)
     lerax-like gradients CartPole [--quick] [--out DIR] [--no-plot] [--solver NAME ...] [--scene-keyword KEY=NUMBER ...]
-    lerax-like gradient-variance DoubleCartPole [--quick] [--solver NAME ...] [--out DIR] [--no-plot]
+    lerax-like gradient-variance DoubleCartPole [--quick] [--solver NAME ...] [--out DIR] [--no-plot] [--scene-keyword KEY=NUMBER ...]
     lerax-like rollout CartPole [--steps N] [--seed S]
     lerax-like solvers
     lerax-like gait SimplestWalker [--scene-keyword slope=0.01] [--no-sensitivity]
@@ -210,11 +210,14 @@ def _gradient_variance(arguments) -> int:
     overrides = _given(arguments, "seed", "dtype")
     if arguments.solver:
         overrides["solvers"] = tuple(arguments.solver)
+    keywords = _scene_keywords(arguments, "gradient-variance") if arguments.scene_keyword else {}
     cases = [{"end_stop_stiffness": k} for k in arguments.end_stop_stiffness or []]
     cases += [{"restitution": e} for e in arguments.restitution or []]
     try:
         configs = [
-            GradientVarianceConfig.default(arguments.scene, quick=arguments.quick, scene_kwargs=kwargs, **overrides)
+            GradientVarianceConfig.default(
+                arguments.scene, quick=arguments.quick, scene_kwargs={**keywords, **kwargs}, **overrides
+            )
             for kwargs in cases or [{}]
         ]
         start = time.perf_counter()
@@ -362,6 +365,7 @@ def main(argv: list[str] | None = None) -> int:
                           help="dtype of the estimators (default float64; float32 vs float64 is measured anyway)")
     variance.add_argument("--out", default="lerax_like_gradient_variance",
                           help="folder for CSV, PNG and JSON (default: %(default)s)")
+    variance.add_argument("--scene-keyword", action="append", metavar="KEY=NUMBER", help=scene_keyword_help)
     variance.add_argument("--seed", type=int, default=None, help="seed of the samples (default 0)")
     variance.add_argument("--no-plot", action="store_true", help="skip the PNG (no matplotlib needed)")
     variance.set_defaults(run=_gradient_variance)

@@ -20,6 +20,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import lerax_like as ll
+from lerax_like.analysis.modes_reference import modes_reference_step, reference_modes
 from lerax_like.env import EnvState
 
 
@@ -128,6 +129,22 @@ def test_the_walled_cart_pole_with_friction_builds_steps_and_matches_scipy():
         if k % 25 == 0:
             np.testing.assert_allclose(np.asarray(state.y), reference(y0, k * DT), rtol=0, atol=1e-6, err_msg=f"t = {k * DT}")
     assert impacts >= 1 and switches >= 2  # it hit the wall, stopped and slipped again
+
+
+@pytest.mark.slow
+def test_the_studies_reference_agrees_with_the_reference_typed_from_the_equations():
+    # The studies' SciPy reference (`lerax_like.analysis.modes_reference`) runs the package's own
+    # modes, guards and resets; `reference` above shares nothing with them but the equations.
+    env = _env()
+    y0 = np.array([0.0, 1.5, 0.1, 0.0])
+    y, fired = y0, []
+    for k in range(1, 101):
+        step = modes_reference_step(reference_modes(env, (k - 1) * DT), y, np.zeros(1), DT)
+        y, fired = step.y, fired + [which for _, which in step.events]
+        if k % 25 == 0:
+            np.testing.assert_allclose(y, reference(y0, k * DT), rtol=0, atol=1e-8, err_msg=f"t = {k * DT}")
+    # Guards: the friction's four (0: a slip ends, 2: a stick releases), then the walls' gaps.
+    assert 0 in fired and 2 in fired and any(which >= 4 for which in fired)
 
 
 def _final(env, y0, steps=25):

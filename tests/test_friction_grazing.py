@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 import lerax_like as ll
-from lerax_like.analysis.friction_reference import friction_modes, friction_reference_step
+from lerax_like.analysis.modes_reference import modes_reference_step, reference_modes
 from lerax_like.hybrid import hermite_dip
 from lerax_like.integrate import make_integrator
 from lerax_like.stick_slip import NORMAL_FLIPS
@@ -52,11 +52,11 @@ def test_a_lift_off_within_one_adaptive_step_is_located():
     with jax.enable_x64(True):
         evolve = jax.jit(jax.vmap(lambda y: env.evolve(ll.EnvState(y=y, steps=jnp.zeros((), int)), jnp.zeros(1))))
         states, info = evolve(jnp.asarray(y0s))
-        modes = friction_modes(env)
-        references = [friction_reference_step(modes, y0, np.zeros(1), dt) for y0 in y0s]
+        modes = reference_modes(env)
+        references = [modes_reference_step(modes, y0, np.zeros(1), dt) for y0 in y0s]
     for i, reference in enumerate(references):
         # The reference: the normal force changes sign twice, 13 and 24 ms apart.
-        assert [which for _, which in reference.switches] == [NORMAL_FLIPS, NORMAL_FLIPS]
+        assert [which for _, which in reference.events] == [NORMAL_FLIPS, NORMAL_FLIPS]
         assert bool(info["solver_ok"][i]) and int(info["switches"][i]) == 2
-        assert float(info["first_switch_time"][i]) == pytest.approx(reference.switches[0][0], abs=1e-4)
+        assert float(info["first_switch_time"][i]) == pytest.approx(reference.events[0][0], abs=1e-4)
         np.testing.assert_allclose(states.y[i], reference.y, rtol=0, atol=1e-5)

@@ -1,6 +1,6 @@
 """The studies through Coulomb stick-slip: `lerax-like study` and `lerax-like gradients` on friction scenes.
 
-- the SciPy reference (`lerax_like.analysis.friction_reference`: `solve_ivp` restarted at every
+- the SciPy reference (`lerax_like.analysis.modes_reference`: `solve_ivp` restarted at every
   located switch) against the sliding block's closed forms: a block launched at `v0` on the
   level stops at `v0 / (mu_k g)` after `v0^2 / (2 mu_k g)`; on an incline it stays at rest iff
   `tan(alpha) <= mu_s`, and above it slides with acceleration `g (sin(alpha) - mu_k cos(alpha))`;
@@ -22,7 +22,7 @@ import pytest
 
 import lerax_like as ll
 from lerax_like import make as make_scene
-from lerax_like.analysis.friction_reference import friction_modes, friction_reference_step
+from lerax_like.analysis.modes_reference import modes_reference_step, reference_modes
 from lerax_like.cli import main
 
 
@@ -36,8 +36,8 @@ def _block(**keywords):
 @pytest.mark.parametrize("v0", [1.5, -0.8])
 def test_reference_stops_a_launched_block_at_the_closed_form_time_and_distance(v0):
     with jax.enable_x64(True):
-        step = friction_reference_step(friction_modes(_block()), np.array([0.0, v0]), np.zeros(1), 1.0)
-    (time, which), = step.switches  # one switch: the slip ends and the block sticks
+        step = modes_reference_step(reference_modes(_block()), np.array([0.0, v0]), np.zeros(1), 1.0)
+    (time, which), = step.events  # one switch: the slip ends and the block sticks
     assert time == pytest.approx(abs(v0) / (MU_K * G), rel=0, abs=1e-12)
     assert step.y[0] == pytest.approx(math.copysign(v0**2 / (2 * MU_K * G), v0), rel=0, abs=1e-12)
     assert step.y[1] == 0.0
@@ -47,9 +47,9 @@ def test_reference_stops_a_launched_block_at_the_closed_form_time_and_distance(v
 def test_reference_holds_on_an_incline_iff_its_tangent_is_within_static_friction(tangent):
     alpha = math.atan(tangent)
     with jax.enable_x64(True):
-        step = friction_reference_step(friction_modes(_block(incline=alpha)), np.zeros(2), np.zeros(1), 0.5)
+        step = modes_reference_step(reference_modes(_block(incline=alpha)), np.zeros(2), np.zeros(1), 0.5)
     if tangent <= MU_S:
-        assert step.switches == [] and np.all(step.y == 0.0)
+        assert step.events == [] and np.all(step.y == 0.0)
     else:
         # Released at once (read off the state at rest), sliding down against kinetic friction.
         acceleration = G * (math.sin(alpha) - MU_K * math.cos(alpha))

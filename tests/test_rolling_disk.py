@@ -21,6 +21,7 @@ import numpy as np
 import pytest
 
 import lerax_like as ll
+from lerax_like.analysis.modes_reference import modes_reference_step, reference_modes
 from lerax_like.env import EnvState
 from lerax_like.physics import DiskFloor
 
@@ -233,6 +234,23 @@ def test_a_disk_thrown_with_backspin_bounces_skids_and_rolls_as_the_scipy_refere
     # the skid, (x_dot + k r angle_dot) / (1 + k) with k = 1/2.
     assert float(state.y[3]) == RADIUS * float(state.y[5])
     assert abs(float(state.y[3]) - (1.0 + 0.5 * RADIUS * -30.0) / 1.5) < 1e-9
+
+
+@pytest.mark.slow
+def test_the_studies_reference_agrees_with_the_reference_typed_from_the_equations():
+    # The studies' SciPy reference (`lerax_like.analysis.modes_reference`) runs the package's own
+    # modes, guards and resets; `_disk_reference` shares nothing with them but the equations.
+    floor = {"static_friction": 0.15, "kinetic_friction": 0.1, "restitution": 0.5, "min_rebound_speed": 0.05}
+    env = ll.make("RollingDisk", radius=RADIUS, gravity=G, dt=0.02, floor=DiskFloor(**floor))
+    y0 = np.array([0.0, RADIUS + 0.2, 0.0, 1.0, 0.0, -30.0])
+    y, fired = y0, []
+    for k in range(1, 101):
+        step = modes_reference_step(reference_modes(env, (k - 1) * 0.02), y, np.zeros(1), 0.02)
+        y, fired = step.y, fired + [which for _, which in step.events]
+        if k % 25 == 0:
+            expected = _disk_reference(y0, k * 0.02, mu_s=0.15, mu_k=0.1, e=0.5, min_rebound=0.05)
+            np.testing.assert_allclose(y, expected, rtol=0, atol=1e-8, err_msg=f"t = {k * 0.02}")
+    assert fired.count(0) >= 3 and fired.count(1) >= 1  # impacts (guard 0), then the skid's end (guard 1)
 
 
 @pytest.mark.slow

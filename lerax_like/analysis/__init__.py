@@ -14,8 +14,8 @@ construction), a run (`run_...(config) -> result`) and a result (its `rows` and 
 
 What they share, one concept per module: `scenes` (scenes by name), `sweeps` (solver
 settings), `measurements` (what a study measures of one setting), `reference`,
-`hybrid_reference` and `friction_reference` (SciPy's solutions, through impacts and
-stick-slip), `verdict` (settings that coincide, resolved timings, the cheapest),
+`hybrid_reference` and `modes_reference` (SciPy's solutions, through impacts and through
+any other hybrid system), `verdict` (settings that coincide, resolved timings, the cheapest),
 `convergence` (fitted orders), `figures`, `tables` (the terminal tables) and `recording`,
 the one writer of CSV, JSON records and figures, which `benchmarks/` uses too. Beside them
 `rollout_check` (the presets' rollouts against SciPy) and `gait` (walkers' limit cycles).

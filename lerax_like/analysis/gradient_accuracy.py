@@ -33,6 +33,7 @@ from ..gradients import reference_integrator, selection_spec, with_adjoint, with
 from ..integrate import Integrator, describe_solver
 from .convergence import convergence_orders
 from .figures import plot_gradient_work_precision
+from .modes_reference import modes_reference_gradient, uses_modes_reference
 from .parameters import check_parameter_names, parameter_names, parameter_where
 from .recording import PLOT_HINT, environment_record, matplotlib_available, write_record
 from .recording import write_csv as write_rows
@@ -138,8 +139,8 @@ def gradient_work_precision(
     solve failed. `g_ref` is computed with `reference_integrator(reference_rtol)` by
     forward mode (exact for the discrete reference solution, and its compilation is the
     cheaper); its floor estimates its own error. Given an `independent` reference instead
-    (`gradient`, flattened as the selection, and its `floor`: a scene with friction takes
-    `friction_reference_gradient`'s), the errors are against it, and Dopri8's own error
+    (`gradient`, flattened as the selection, and its `floor`: a hybrid scene takes
+    `modes_reference_gradient`'s), the errors are against it, and Dopri8's own error
     against it is recorded as `dopri8_discrepancy`.
 
     Returns the rows, one per integrator (`label`, `controller`, `substeps`, `dt` (the
@@ -261,7 +262,7 @@ class GradientStudyConfig:
     - `horizon`: env steps of the rollout; `seed`: draws the initial state from
       `env.initial` and the actions from the action space, unless `initial_state`,
       `actions` are given.
-    - `parameters`: names of fields of `env.dynamics` (or of a friction add-on) to
+    - `parameters`: names of fields of `env.dynamics` (or of a friction add-on, a floor) to
       differentiate with respect to (`None`: all of them, the physical parameters); the
       record's `parameter_names` lists them in the env's leaf order, the gradient's.
     - `cost`: the loss of the trajectory `ys` (default `mean_squared_state`).
@@ -306,8 +307,8 @@ class GradientStudyConfig:
         settings: dict[str, Any] = dict(scene=scene, sweeps=default_gradient_sweeps(quick=quick))
         if quick:
             settings.update(repeats=3)
-            if scene in SCENES and getattr(make(scene, **overrides.get("scene_kwargs", {})), "friction", ()):
-                # The reference through friction costs six SciPy rollouts per parameter.
+            if scene in SCENES and uses_modes_reference(make(scene, **overrides.get("scene_kwargs", {}))):
+                # The reference through the modes costs six SciPy rollouts per parameter.
                 settings.update(horizon=20)
         settings.update(overrides)
         return cls(**settings)
@@ -371,15 +372,14 @@ def _run_gradient_study(config: GradientStudyConfig) -> GradientStudyResult:
     settings = [(sweep, integrator) for sweep in sweeps for _, integrator in sweep.integrators()]
     independent, solver = None, "dopri8 (diffrax), PIDController, atol = rtol / 100, forward mode"
     floor_estimate = "|g_check - g| / |g|, g_check at 10 rtol and dtmax = dt / 4"
-    if getattr(env, "friction", ()):
-        # Through stick-slip: central differences of SciPy's event-located reference, which
-        # owes nothing to diffrax's root find or to automatic differentiation.
-        from .friction_reference import friction_reference_gradient
-
+    if uses_modes_reference(env):
+        # Through stick-slip switches and impacts with friction: central differences of SciPy's
+        # event-located reference, which owes nothing to diffrax's root find or to automatic
+        # differentiation.
         inputs = jax.vmap(env.physical_input)(actions)
-        independent = friction_reference_gradient(env, where, y0, inputs, config.cost)
+        independent = modes_reference_gradient(env, where, y0, inputs, config.cost)
         solver = ("central differences (fourth order) of scipy.integrate.solve_ivp DOP853 restarted at every "
-                  "located stick-slip switch (lerax_like.analysis.friction_reference)")
+                  "located event of the scene's modes (lerax_like.analysis.modes_reference)")
         floor_estimate = "|g(2h) - g(h)| / |g(h)|, the stencil at twice the step"
     rows, reference = gradient_work_precision(
         env,

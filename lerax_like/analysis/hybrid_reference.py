@@ -17,7 +17,11 @@ model) is refused.
 from collections.abc import Callable, Sequence
 from typing import NamedTuple
 
+import jax
+import jax.numpy as jnp
 import numpy as np
+
+from .reference import scipy_solve_ivp
 
 
 class Contact(NamedTuple):
@@ -56,14 +60,7 @@ def hybrid_reference(
     (a Zeno run), or when a solve fails: a reference never hides a failure.
     `segments` holds each segment's `solve_ivp` solution (dense if `dense_output`).
     """
-    import jax
-    import jax.numpy as jnp
-
-    try:
-        from scipy.integrate import solve_ivp
-    except ImportError as error:  # pragma: no cover - depends on the environment
-        raise ImportError("the reference solutions need SciPy: pip install 'lerax_like[study]'") from error
-
+    solve_ivp = scipy_solve_ivp()
     with jax.enable_x64(True):
         u = jnp.asarray(u, dtype=jnp.float64)
         f = jax.jit(lambda t, y: vector_field(t, y, u))
@@ -119,8 +116,6 @@ def hybrid_reference(
 
 def contacts_of(env) -> list[Contact]:
     """An env's contact add-ons (`env.contacts`) as one `Contact` per surface, in the env's order."""
-    import jax
-
     dynamics = env.dynamics
     contacts = []
     for add_on in env.contacts:
@@ -136,14 +131,29 @@ def contacts_of(env) -> list[Contact]:
 def hybrid_reference_trajectories(
     env, y0s, inputs, dt: float, fractions, *, method: str = "DOP853", rtol: float = 1e-13, atol: float = 1e-13,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """As `dense_reference_trajectories`, through the impacts of the env's contacts.
-
-    One hybrid solve per initial state and env step (the input held over the step, the
-    field read at the episode's time `k dt + s`), each restarted at every impact. Returns the states after each env step `(B, T, n)` and at
-    `fractions` of each step `(B, T, len(fractions), n)`, from the segment covering each
-    time (SciPy's dense output).
-    """
+    """As `dense_reference_trajectories`, through the impacts of the env's contacts: one hybrid
+    solve per initial state and env step (the field read at the episode's time `k dt + s`),
+    each restarted at every impact (`segmented_trajectories`)."""
     contacts = contacts_of(env)
+
+    def step(k: int, y, u):
+        t0 = np.float64(k) * np.float64(dt)
+        solution = hybrid_reference(
+            lambda s, y, u: env.physics.vector_field(t0 + s, y, u), contacts, y, u, dt,
+            method=method, rtol=rtol, atol=atol, dense_output=len(fractions) > 0,
+        )
+        return solution.y, solution.segments
+
+    return segmented_trajectories(step, y0s, inputs, dt, fractions)
+
+
+def segmented_trajectories(step: Callable, y0s, inputs, dt: float, fractions) -> tuple[np.ndarray, np.ndarray]:
+    """The states after each env step `(B, T, n)` and at `fractions` of each step `(B, T,
+    len(fractions), n)` of the initial states `y0s` under `inputs` (one held per env step).
+
+    `step(k, y, u)` solves env step `k` from `y` and returns its end state and its `solve_ivp`
+    segments (dense where `fractions` are asked), from which each time inside is read.
+    """
     y0s = np.asarray(y0s, dtype=np.float64)
     inputs = np.asarray(inputs, dtype=np.float64)
     fractions = np.asarray(fractions, dtype=np.float64)
@@ -151,18 +161,14 @@ def hybrid_reference_trajectories(
     inside = np.empty((len(y0s), len(inputs), len(fractions), y0s.shape[1]))
     for b, y in enumerate(y0s):
         for k, u in enumerate(inputs):
-            t0 = np.float64(k) * np.float64(dt)
-            solution = hybrid_reference(
-                lambda s, y, u, t0=t0: env.physics.vector_field(t0 + s, y, u), contacts, y, u, dt,
-                method=method, rtol=rtol, atol=atol,
-                dense_output=len(fractions) > 0,
-            )
+            y, segments = step(k, y, u)
             for j, time in enumerate(fractions * dt):
-                segment = next(s for s in solution.segments if s.t[0] <= time <= s.t[-1])
+                segment = next(s for s in segments if s.t[0] <= time <= s.t[-1])
                 inside[b, k, j] = segment.sol(time)
-            y = solution.y
             states[b, k] = y
     return states, inside
 
 
-__all__ = ["Contact", "HybridSolution", "contacts_of", "hybrid_reference", "hybrid_reference_trajectories"]
+__all__ = [
+    "Contact", "HybridSolution", "contacts_of", "hybrid_reference", "hybrid_reference_trajectories", "segmented_trajectories",
+]

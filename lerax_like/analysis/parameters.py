@@ -1,8 +1,8 @@
 """Which physical parameters a gradient study differentiates, and what it calls them.
 
-The physical parameters of a scene live in its dynamics and in its friction add-ons (their
-coefficients); a study picks them all or some by field name, and names each entry of the
-gradient it records.
+The physical parameters of a scene live in its dynamics, in its friction add-ons (their
+coefficients) and in a disk's floor; a study picks them all or some by field name, and names
+each entry of the gradient it records.
 """
 
 import dataclasses
@@ -17,23 +17,24 @@ from ..gradients import selection_spec
 
 
 def physical_parameters(env: AbstractEnv) -> tuple[Any, ...]:
-    """Where the physical parameters live: the dynamics, and a friction add-on's coefficients."""
-    return (env.dynamics, *getattr(env, "friction", ()))
+    """Where the physical parameters live: the dynamics, a friction add-on's coefficients, a
+    disk's floor (its friction and restitution)."""
+    floor = getattr(env, "floor", None)
+    return (env.dynamics, *getattr(env, "friction", ()), *(() if floor is None else (floor,)))
 
 
 def parameter_where(env: AbstractEnv, parameters: tuple[str, ...] | None) -> Callable[[AbstractEnv], Any]:
     """The `where` (as `eqx.tree_at` takes it) of the named parameters of `env`'s parts, or of
     all its physical parameters for `None`."""
     if parameters is None:
-        return physical_parameters if getattr(env, "friction", ()) else lambda env: env.dynamics
-    parts = physical_parameters(env)
-    owner = {name: i for i, part in enumerate(parts) for name in field_names(part)}
+        return physical_parameters if len(physical_parameters(env)) > 1 else lambda env: env.dynamics
+    owner = {name: i for i, part in enumerate(physical_parameters(env)) for name in field_names(part)}
     # `eqx.tree_at` calls `where` on a copy whose leaves, and empty tuples such as a scene's
     # `friction = ()`, are wrapped: index the friction add-ons the env has, never unpack.
-    frictions = range(len(parts) - 1)
+    frictions, floor = range(len(getattr(env, "friction", ()))), getattr(env, "floor", None) is not None
 
     def where(env: AbstractEnv) -> tuple[Any, ...]:
-        parts = (env.dynamics, *(env.friction[i] for i in frictions))  # pyright: ignore[reportAttributeAccessIssue]
+        parts = (env.dynamics, *(env.friction[i] for i in frictions), *((env.floor,) if floor else ()))  # pyright: ignore[reportAttributeAccessIssue]
         return tuple(getattr(parts[owner[name]], name) for name in parameters)
 
     return where
@@ -50,7 +51,7 @@ def parameter_names(env: AbstractEnv, where: Callable[[AbstractEnv], Any]) -> li
     `where` lists the parameters. Each name is the field's path within its part (the
     dynamics, or a friction add-on): `pole_mass`, `kinetic_friction`.
     """
-    parts = {".dynamics", *(f".friction[{i}]" for i in range(len(getattr(env, "friction", ()))))}
+    parts = {".dynamics", ".floor", *(f".friction[{i}]" for i in range(len(getattr(env, "friction", ()))))}
     chosen = jax.tree.leaves(selection_spec(env, where))
     names = []
     for (path, leaf), selected in zip(jax.tree_util.tree_flatten_with_path(env)[0], chosen, strict=True):

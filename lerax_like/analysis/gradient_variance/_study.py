@@ -144,7 +144,8 @@ class GradientVarianceConfig:
     def name(self) -> str:
         if self.case is not None:
             return self.case
-        stiff = {k: v for k, v in self.scene_kwargs.items() if k in ("end_stop_stiffness", "restitution", "joint_damping")}
+        stiff = {k: v for k, v in self.scene_kwargs.items()
+                 if k in ("end_stop_stiffness", "restitution", "joint_damping", "cart_kinetic_friction")}
         if not stiff:
             return self.scene
         return self.scene + "[" + ",".join(f"{k}={v:g}" for k, v in stiff.items()) + "]"
@@ -157,7 +158,8 @@ class GradientVarianceConfig:
         cart-pole's first pole 0.05 rad (the LQR gain of the default cost then balances
         both without saturating); a cart-pole with end stops `CONTACT_GAP` (0.09 m) from a
         stop at `track_limit = 0.5`, running into it at 1 m/s, with zero nominal feedback;
-        the same with walls located as events (`restitution`).
+        the same with walls located as events (`restitution`, with cart friction too); the
+        rolling disk launched sliding at 1 m/s with no spin, zero nominal torque.
 
         The gap puts the nominal impact at 0.09 s, halfway between the cost's sampling
         instants 0.08 and 0.10 s (`dt = 0.02`). The cost reads the state at the end of each
@@ -189,6 +191,9 @@ class GradientVarianceConfig:
                 settings.update(initial_state=(0.0, 0.0, 0.1, 0.0))
         elif settings["scene"] == "DoubleCartPole":
             settings.update(initial_state=(0.0, 0.05, 0.0, 0.0, 0.0, 0.0))
+        elif settings["scene"] == "RollingDisk":
+            settings.update(initial_state=(0.0, float(kwargs.get("radius", 0.1)), 0.0, 1.0, 0.0, 0.0),
+                            solvers=("tsit5",), feedback_gain="zero")
         settings["scene_kwargs"] = kwargs
         if quick:
             settings.update(horizons=(10, 30, 100), samples=256, reference_samples=8192, precision_horizon=200)

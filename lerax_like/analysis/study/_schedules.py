@@ -11,9 +11,9 @@ import numpy as np
 
 from ...env import AbstractEnv
 from ...spaces import Box, Discrete
-from ..friction_reference import friction_reference_trajectories
 from ..hybrid_reference import hybrid_reference_trajectories
 from ..measurements import invariant_drifts
+from ..modes_reference import modes_reference_trajectories, uses_modes_reference
 from ..reference import dense_reference_trajectories
 
 
@@ -121,12 +121,11 @@ def schedule_reference(
     dt = float(env.dt)
 
     def solve(which, tol):
-        if getattr(env, "contacts", ()):
-            # Impacts located as events by SciPy too, restarted at each one.
+        # Impacts, switches and resets located as events by SciPy too, restarted at each one.
+        if uses_modes_reference(env):
+            return modes_reference_trajectories(env, y0s, inputs, dt, fractions, method=which, rtol=tol, atol=tol)
+        if env.modes() is not None:
             return hybrid_reference_trajectories(env, y0s, inputs, dt, fractions, method=which, rtol=tol, atol=tol)
-        if getattr(env, "friction", ()):
-            # Stick-slip switches located as events by SciPy too, restarted at each one.
-            return friction_reference_trajectories(env, y0s, inputs, dt, fractions, method=which, rtol=tol, atol=tol)
         return dense_reference_trajectories(env.physics, y0s, inputs, dt, fractions, method=which, rtol=tol, atol=tol)
 
     start = time.perf_counter()
@@ -150,6 +149,6 @@ def schedule_reference(
 
 
 def measures_drifts(env: AbstractEnv, schedule: str) -> bool:
-    """Whether the rows of `schedule` report invariant drifts: zero input, and no friction add-on,
-    whose dry friction takes energy and momentum by physics (its fall is no solver error)."""
-    return schedule == "zero" and not getattr(env, "friction", ())
+    """Whether the rows of `schedule` report invariant drifts: zero input, and no dry friction (a
+    friction add-on, a disk's floor), which takes energy and momentum by physics (no solver error)."""
+    return schedule == "zero" and not (getattr(env, "friction", ()) or getattr(env, "floor", None))

@@ -204,7 +204,7 @@ def _row(
     deviation = np.max(np.abs(ys - reference.states), axis=-1)  # (B, T)
     dense = None
     # A solver's dense output does not pass an impact or a switch: no dense errors through them.
-    if solver_ok and not getattr(env, "contacts", ()) and not getattr(env, "friction", ()):
+    if solver_ok and env.modes() is None:
         dense = dense_errors(env, y0s, ys, inputs, dense_fractions(dense_points), reference.states, reference.inside)
     accepted = float(np.mean(np.sum(steps, axis=1)))
     attempted = accepted + float(np.mean(np.sum(rejected, axis=1)))
