@@ -121,8 +121,10 @@ COMPILATION_CACHE_SETTINGS = {
     # -1: every entry, however small, and no size chosen for us by the filesystem.
     "jax_persistent_cache_min_entry_size_bytes": -1,
 }
+NOTEBOOK_SETTINGS = "LERAX_LIKE_NOTEBOOKS"
 _CACHE_INPUT = "lerax_like_compilation_cache_dir"
-_COMPILATION_CACHE = pytest.StashKey[tuple[str, dict[str, str | None]]]()
+# The cache's folder, and the variables this run set with the values they had before.
+_RUN_ENVIRONMENT = pytest.StashKey[tuple[str, dict[str, str | None]]]()
 
 
 def _use_compilation_cache(folder: str) -> dict[str, str | None]:
@@ -142,19 +144,26 @@ def pytest_configure(config):
         _use_compilation_cache(worker_input[_CACHE_INPUT])
     else:  # the process that starts the run: the controller under xdist, or the only process
         folder = tempfile.mkdtemp(prefix="lerax_like-tests-jax-cache-")
-        config.stash[_COMPILATION_CACHE] = (folder, _use_compilation_cache(folder))
+        replaced = _use_compilation_cache(folder)
+        # nbmake's kernels run the notebooks with their small settings: the same code in
+        # seconds, where their committed outputs are from the full settings and tests or
+        # benchmarks check the claims at full size (each notebook names which). Set
+        # LERAX_LIKE_NOTEBOOKS=full to run them in full.
+        replaced[NOTEBOOK_SETTINGS] = os.environ.get(NOTEBOOK_SETTINGS)
+        os.environ.setdefault(NOTEBOOK_SETTINGS, "small")
+        config.stash[_RUN_ENVIRONMENT] = (folder, replaced)
 
 
 @pytest.hookimpl(optionalhook=True)
 def pytest_configure_node(node):
     # pytest-xdist, in the controller, before it starts a worker.
-    node.workerinput[_CACHE_INPUT] = node.config.stash[_COMPILATION_CACHE][0]
+    node.workerinput[_CACHE_INPUT] = node.config.stash[_RUN_ENVIRONMENT][0]
 
 
 def pytest_unconfigure(config):
-    if _COMPILATION_CACHE not in config.stash:
+    if _RUN_ENVIRONMENT not in config.stash:
         return
-    folder, replaced = config.stash[_COMPILATION_CACHE]
+    folder, replaced = config.stash[_RUN_ENVIRONMENT]
     for name, value in replaced.items():
         if value is None:
             os.environ.pop(name, None)
