@@ -18,6 +18,7 @@ import pytest
 from packaging.requirements import Requirement
 
 import lerax_like
+import timings  # tests/timings.py
 
 
 jax.config.update("jax_enable_x64", True)
@@ -138,8 +139,20 @@ def _use_compilation_cache(folder: str) -> dict[str, str | None]:
     return replaced
 
 
+def pytest_addoption(parser):
+    parser.addoption(
+        "--timings", metavar="FILE", type=pathlib.Path,
+        help="append each test's wall and CPU seconds and JAX's compile seconds to FILE (JSON lines) "
+        "and end with a table per module (tests/timings.py)",
+    )
+
+
 def pytest_configure(config):
     worker_input = getattr(config, "workerinput", None)
+    if config.getoption("timings") is not None:
+        config.pluginmanager.register(
+            timings.Timings(config.getoption("timings"), starts_the_run=worker_input is None), "lerax_like_timings"
+        )
     if worker_input is not None:
         _use_compilation_cache(worker_input[_CACHE_INPUT])
     else:  # the process that starts the run: the controller under xdist, or the only process
