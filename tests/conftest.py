@@ -6,6 +6,8 @@ import importlib
 import os
 import pathlib
 import re
+import shutil
+import tempfile
 import tomllib
 from typing import NamedTuple
 
@@ -16,6 +18,7 @@ import pytest
 from packaging.requirements import Requirement
 
 import lerax_like
+import timings  # tests/timings.py
 
 
 jax.config.update("jax_enable_x64", True)
@@ -99,6 +102,87 @@ def _release_compiled_programs():
 
 
 __all__ = ["STATE_RTOL", "jnp", "relative_error", "tree_allclose"]
+
+
+# JAX's persistent compilation cache, shared by every process of one run. Most of the suite's
+# time is XLA compiling (docs/testing.md), and much of it compiles a program that another
+# module, or the other xdist worker, has compiled already: the same scene and solver stepped
+# in many modules. `_release_compiled_programs` drops each module's programs (it must, for
+# `vm.max_map_count`), so without this cache every later module compiles them again; with
+# it, a program compiled once in the run is read back from disk (tracing and lowering are
+# still paid, XLA's compile is not). The folder is the run's own, made by the process that
+# starts the run (the controller under xdist), never the user's home, and removed when the
+# run ends. It reaches the xdist workers in their `workerinput`, and the processes that tests
+# start (the command line, the docs' scripts, nbmake's notebook kernels) through JAX's own
+# variables, which JAX reads when it is imported.
+COMPILATION_CACHE_SETTINGS = {
+    # By default JAX keeps only programs that took a second or more to compile: a test
+    # compiles hundreds of small ones, and they add up.
+    "jax_persistent_cache_min_compile_time_secs": 0.0,
+    # -1: every entry, however small, and no size chosen for us by the filesystem.
+    "jax_persistent_cache_min_entry_size_bytes": -1,
+}
+NOTEBOOK_SETTINGS = "LERAX_LIKE_NOTEBOOKS"
+_CACHE_INPUT = "lerax_like_compilation_cache_dir"
+# The cache's folder, and the variables this run set with the values they had before.
+_RUN_ENVIRONMENT = pytest.StashKey[tuple[str, dict[str, str | None]]]()
+
+
+def _use_compilation_cache(folder: str) -> dict[str, str | None]:
+    """Point this process, and those it starts, at `folder`; return the variables it replaced."""
+    settings = {"jax_compilation_cache_dir": folder, **COMPILATION_CACHE_SETTINGS}
+    replaced = {name.upper(): os.environ.get(name.upper()) for name in settings}
+    for name, value in settings.items():
+        os.environ[name.upper()] = str(value)
+        # This process imported JAX (above) before the variables were set.
+        jax.config.update(name, value)
+    return replaced
+
+
+def pytest_addoption(parser):
+    parser.addoption(
+        "--timings", metavar="FILE", type=pathlib.Path,
+        help="append each test's wall and CPU seconds and JAX's compile seconds to FILE (JSON lines) "
+        "and end with a table per module (tests/timings.py)",
+    )
+
+
+def pytest_configure(config):
+    worker_input = getattr(config, "workerinput", None)
+    if config.getoption("timings") is not None:
+        config.pluginmanager.register(
+            timings.Timings(config.getoption("timings"), starts_the_run=worker_input is None), "lerax_like_timings"
+        )
+    if worker_input is not None:
+        _use_compilation_cache(worker_input[_CACHE_INPUT])
+    else:  # the process that starts the run: the controller under xdist, or the only process
+        folder = tempfile.mkdtemp(prefix="lerax_like-tests-jax-cache-")
+        replaced = _use_compilation_cache(folder)
+        # nbmake's kernels run the notebooks with their small settings: the same code in
+        # seconds, where their committed outputs are from the full settings and tests or
+        # benchmarks check the claims at full size (each notebook names which). Set
+        # LERAX_LIKE_NOTEBOOKS=full to run them in full.
+        replaced[NOTEBOOK_SETTINGS] = os.environ.get(NOTEBOOK_SETTINGS)
+        os.environ.setdefault(NOTEBOOK_SETTINGS, "small")
+        config.stash[_RUN_ENVIRONMENT] = (folder, replaced)
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_configure_node(node):
+    # pytest-xdist, in the controller, before it starts a worker.
+    node.workerinput[_CACHE_INPUT] = node.config.stash[_RUN_ENVIRONMENT][0]
+
+
+def pytest_unconfigure(config):
+    if _RUN_ENVIRONMENT not in config.stash:
+        return
+    folder, replaced = config.stash[_RUN_ENVIRONMENT]
+    for name, value in replaced.items():
+        if value is None:
+            os.environ.pop(name, None)
+        else:
+            os.environ[name] = value
+    shutil.rmtree(folder, ignore_errors=True)
 
 
 def pytest_collection_modifyitems(config, items):
