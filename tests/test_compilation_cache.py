@@ -14,7 +14,7 @@ import jax.numpy as jnp
 import pytest
 
 
-CONFTEST = pathlib.Path(__file__).resolve().parent / "conftest.py"
+TESTS = pathlib.Path(__file__).resolve().parent
 
 PROBE = '''
 import json, os, pathlib
@@ -52,7 +52,8 @@ def test_this_run_compiles_into_a_temporary_folder_of_its_own():
 def test_the_workers_share_the_controllers_folder_and_it_is_removed_at_the_end(tmp_path):
     probe = tmp_path / "probe"
     probe.mkdir()
-    shutil.copy(CONFTEST, probe / "conftest.py")
+    for name in ("conftest.py", "timings.py"):  # the conftest and the plugin it imports
+        shutil.copy(TESTS / name, probe / name)
     (probe / "test_probe.py").write_text(PROBE)
     out = tmp_path / "out"
     out.mkdir()
