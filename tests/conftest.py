@@ -11,6 +11,7 @@ import tempfile
 import tomllib
 from typing import NamedTuple
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -100,7 +101,28 @@ def _release_compiled_programs():
     gc.collect()
 
 
-__all__ = ["STATE_RTOL", "jnp", "relative_error", "tree_allclose"]
+def unforced_run_against(env, y0, reference, *, steps=100, every=25, atol=1e-6):
+    """Step `env` unforced from `y0`, comparing the state with `reference(y0, t)` every
+    `every` steps, and return the last state and the impacts and stick-slip switches made.
+
+    The frictional-contact scenes' check against their SciPy references (the walled cart-pole
+    with friction, the rolling disk): each step must succeed, and the state stay within `atol`.
+    """
+    evolve = eqx.filter_jit(lambda env, state: env.evolve(state, jnp.zeros(1)))
+    state = lerax_like.EnvState(y=jnp.asarray(y0), steps=jnp.zeros((), int))
+    impacts = switches = 0
+    for k in range(1, steps + 1):
+        state, info = evolve(env, state)
+        assert bool(info["solver_ok"]), f"step {k} failed"
+        impacts += int(info["impacts"])
+        switches += int(info["switches"])
+        if k % every == 0:
+            t = k * float(env.dt)
+            np.testing.assert_allclose(np.asarray(state.y), reference(y0, t), rtol=0, atol=atol, err_msg=f"t = {t}")
+    return state, impacts, switches
+
+
+__all__ = ["STATE_RTOL", "jnp", "relative_error", "tree_allclose", "unforced_run_against"]
 
 
 # JAX's persistent compilation cache, shared by every process of one run. Most of the suite's

@@ -14,17 +14,19 @@ A sliding impact changes the linear momentum by the full Coulomb impulse: x_dot+
 - mu (1 + e) c sign(w-), and angle_dot+ = angle_dot- + r mu (1 + e) m c sign(w-) / I.
 """
 
+import functools
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from conftest import unforced_run_against
 
 import lerax_like as ll
 from lerax_like.analysis.modes_reference import modes_reference_step, reference_modes
 from lerax_like.env import EnvState
 from lerax_like.physics import DiskFloor
-
 
 G, RADIUS, V0 = 9.81, 0.1, 2.0
 DT, STEPS = 0.25, 4  # T = 1 s, past t* for every mu >= 0.1
@@ -216,18 +218,8 @@ def test_a_disk_thrown_with_backspin_bounces_skids_and_rolls_as_the_scipy_refere
         stepsize_controller=diffrax.PIDController(rtol=1e-12, atol=1e-12), max_steps=100_000,
     )
     y0 = np.array([0.0, RADIUS + 0.2, 0.0, 1.0, 0.0, -30.0])
-    state = EnvState(y=jnp.asarray(y0), steps=jnp.zeros((), int))
-    impacts = switches = 0
-    for k in range(1, 101):
-        state, info = _evolve(env, state)
-        assert bool(info["solver_ok"]), k
-        impacts += int(info["impacts"])
-        switches += int(info["switches"])
-        if k % 25 == 0:
-            expected = _disk_reference(
-                y0, k * 0.02, mu_s=0.15, mu_k=0.1, e=0.5, min_rebound=0.05,
-            )
-            np.testing.assert_allclose(np.asarray(state.y), expected, rtol=0, atol=1e-6, err_msg=f"t = {k * 0.02}")
+    reference = functools.partial(_disk_reference, mu_s=0.15, mu_k=0.1, e=0.5, min_rebound=0.05)
+    state, impacts, switches = unforced_run_against(env, y0, reference)
     assert impacts >= 3 and switches >= 1
     # Thrown forward with enough backspin, it comes back: rolling towards -x at the end, at the speed
     # that conserves the angular momentum about the contact point through the sliding impacts and
