@@ -91,10 +91,10 @@ SKIPPED_IN_CI = {"test_imports_what_only_another_extra_lists", "test_hints_at_an
 def _run(folder, ci):
     """pytest's exit status on both probe files, the names of the probe tests (or the
     module) per outcome, and its output."""
-    env = {name: value for name, value in os.environ.items() if name != "CI"}
+    env = {name: value for name, value in os.environ.items() if name not in ("CI", "PYTEST_ADDOPTS")}
     if ci:
         env["CI"] = "true"
-    # -c /dev/null: none of the project's options (no xdist, no nbmake); the probe folder is
+    # -c /dev/null, and no PYTEST_ADDOPTS: none of the project's options (no xdist, no nbmake) nor the caller's; the probe folder is
     # the root, so its pyproject.toml is the one read. A collection error would stop the
     # run before the tests (pytest's default); -rA lists every outcome.
     completed = subprocess.run(

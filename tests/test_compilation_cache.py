@@ -57,8 +57,9 @@ def test_the_workers_share_the_controllers_folder_and_it_is_removed_at_the_end(t
     (probe / "test_probe.py").write_text(PROBE)
     out = tmp_path / "out"
     out.mkdir()
-    env = {**os.environ, "PROBE_OUT": str(out)}
-    # -c /dev/null: none of the project's options; two workers (xdist's `load` sends one test to each).
+    # -c /dev/null and no PYTEST_ADDOPTS: none of the project's options nor the caller's (a
+    # --timings=FILE there would have the probe's controller empty the caller's FILE); two workers (xdist's `load` sends one test to each).
+    env = {name: value for name, value in os.environ.items() if name != "PYTEST_ADDOPTS"} | {"PROBE_OUT": str(out)}
     completed = subprocess.run(
         [sys.executable, "-m", "pytest", "-c", os.devnull, "--rootdir", str(probe), "-p", "no:cacheprovider",
          "-n", "2", "-q", "test_probe.py"],
