@@ -3,9 +3,12 @@
 A scene is covered here the moment it is registered, the package's own and those that test
 modules register (`tests/conftest.py` imports them before collection): its Gymnasium-style
 docstring, its declared `stochastic` against its behaviour, construction errors that name
-the parameter, `jit`/`vmap`/`grad` through 20 steps, and energy conservation wherever its
+the parameter, and energy conservation wherever its
 dynamics claim it (checked against a Dopri8 solve at rtol 1e-12, not against the scene's
 own solver). Nothing here counts scenes: everything is read off `lerax_like.SCENES`.
+`jit`, `vmap`, `grad` and `jacfwd` composed through a rollout of every scene, its reward
+included, are checked against central differences in tests/test_batched_gradients.py, which
+also reads `lerax_like.SCENES`.
 """
 
 import dataclasses
@@ -21,6 +24,7 @@ import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
 import pytest
+from conftest import quick_unless_hybrid
 
 import lerax_like as ll
 from lerax_like._fields import parameter_range
@@ -126,7 +130,7 @@ def _sample_action(env, key):
     return env.action_space.sample(key=key)
 
 
-@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("name", [quick_unless_hybrid(name) for name in NAMES])
 def test_declared_stochastic_matches_behaviour(name):
     env = ll.SCENES[name]()
     state, _, _ = env.reset(key=jr.key(0))
@@ -173,42 +177,6 @@ def test_dynamics_may_be_given_as_a_module(name):
         ll.make(scene, dynamics=dynamics, **{first: getattr(dynamics, first)})
 
 
-def _adaptive_by_default(name):
-    return ll.SCENES[name]().integrator.adaptive
-
-
-# The reverse-mode program through an adaptive solve (a while loop of accepted and rejected
-# steps, and located events where a scene has them) is what costs here: 38 to 142 s per scene
-# under load at d6ce025 (BouncingBall, CompassGait, SlidingBlock, SimplestWalker, RimlessWheel,
-# SpringMass, VanDerPol), 6 to 17 s for the fixed-step scenes. Those compile in CI, out of the
-# quick loop, as tests/test_batched_gradients.py marks its adaptive and contact cases.
-@pytest.mark.parametrize(
-    "name", [pytest.param(name, marks=[pytest.mark.slow] if _adaptive_by_default(name) else []) for name in NAMES]
-)
-def test_jit_vmap_and_grad_through_twenty_steps(name):
-    env = ll.SCENES[name]()
-    starts = jax.vmap(lambda key: env.reset(key=key)[0])(jr.split(jr.key(0), 3))
-    actions = jax.vmap(lambda key: _sample_action(env, key))(jr.split(jr.key(1), 20))
-
-    @eqx.filter_jit
-    def loss(env, state):
-        ys, info = ll.rollout(env, state, actions)
-        return jnp.sum(ys[-1] ** 2) + jnp.sum(info["reward"]), info
-
-    def batched(env):
-        values, info = jax.vmap(loss, in_axes=(None, 0))(env, starts)
-        return jnp.mean(values), info
-
-    # The gradient taken under jit too: one program for the value and its gradient, where
-    # an eager `grad` of the jitted loss compiles its forward and backward parts apart
-    # (BouncingBall: 48 -> 38 s of CPU, Acrobot 9.3 -> 8.5 s, under load).
-    (value, info), gradient = eqx.filter_jit(eqx.filter_value_and_grad(batched, has_aux=True))(env)
-    assert np.isfinite(float(value))
-    assert np.all(np.asarray(info["solver_ok"]))
-    leaves = jax.tree.leaves(eqx.filter(gradient.dynamics, eqx.is_inexact_array))
-    assert leaves and all(np.all(np.isfinite(np.asarray(leaf))) for leaf in leaves)
-
-
 class _Clock(eqx.Module):
     """A scene's dynamics, recording the time `t` at which each call reads its vector field."""
 
@@ -239,7 +207,7 @@ def _step(env, state, action, key):
     return env.step(state, action, key=key)
 
 
-@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("name", [quick_unless_hybrid(name) for name in NAMES])
 def test_the_vector_field_reads_the_episode_time(name):
     # A driven force (`cos(w t)`) is right only if `t` runs on over the episode: step k reads
     # the field within [k dt, (k + 1) dt], from k dt. A step whose clock restarts at 0 (or a
@@ -271,7 +239,7 @@ def _tight(env):
     return eqx.tree_at(lambda e: e.integrator, env, ll.make_integrator("dopri8", controller, max_steps=100_000))
 
 
-@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("name", [quick_unless_hybrid(name) for name in NAMES])
 def test_energy_is_conserved_with_zero_input_where_claimed(name):
     with jax.enable_x64(True):
         env = ll.SCENES[name]()
