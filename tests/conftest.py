@@ -122,7 +122,19 @@ def unforced_run_against(env, y0, reference, *, steps=100, every=25, atol=1e-6):
     return state, impacts, switches
 
 
-__all__ = ["STATE_RTOL", "jnp", "relative_error", "tree_allclose", "unforced_run_against"]
+def hybrid(name: str) -> bool:
+    """Whether the registered scene `name` is hybrid (located impacts, stick-slip, a floor)."""
+    return lerax_like.SCENES[name]().modes() is not None
+
+
+def quick_unless_hybrid(name: str, *values, id: str | None = None):
+    """A parameter of a test over scenes, marked `slow` where the scene is hybrid: its located
+    events make the compiles the longest (5 to 10 s a case against 1 to 3), so the quick loop
+    (`-m "not slow"`) runs the smooth scenes and CI runs every one."""
+    return pytest.param(name, *values, marks=[pytest.mark.slow] if hybrid(name) else [], id=id)
+
+
+__all__ = ["STATE_RTOL", "hybrid", "jnp", "quick_unless_hybrid", "relative_error", "tree_allclose", "unforced_run_against"]
 
 
 # JAX's persistent compilation cache, shared by every process of one run. Most of the suite's

@@ -12,6 +12,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from conftest import quick_unless_hybrid
 from hypothesis import given, settings, strategies as st
 
 import lerax_like as ll
@@ -262,8 +263,10 @@ def _variants():
                     yield name, {field.name: choice}
 
 
-VARIANTS = list(_variants())
-VARIANT_IDS = [f"{name}-{'-'.join(f'{k}={v}' for k, v in options.items()) or 'default'}" for name, options in VARIANTS]
+VARIANTS = [
+    quick_unless_hybrid(name, options, id=f"{name}-{'-'.join(f'{k}={v}' for k, v in options.items()) or 'default'}")
+    for name, options in _variants()
+]
 
 
 def _random_actions(env, key, shape):
@@ -307,7 +310,7 @@ def _regular_rewards(env, key):
     return np.asarray(rewards), np.asarray(regular)
 
 
-@pytest.mark.parametrize("name, options", VARIANTS, ids=VARIANT_IDS)
+@pytest.mark.parametrize("name, options", VARIANTS)
 def test_worst_reward_bounds_every_regular_reward(name, options):
     env = ll.make(name, **options)
     rewards, regular = _regular_rewards(env, jax.random.key(0))
@@ -340,7 +343,7 @@ FAILURES = ("inadmissible action", "nan dynamics", "overflow")
 
 
 @pytest.mark.parametrize("failure", FAILURES)
-@pytest.mark.parametrize("name, options", VARIANTS, ids=VARIANT_IDS)
+@pytest.mark.parametrize("name, options", VARIANTS)
 def test_a_forced_failure_pays_at_most_the_worst_reward(name, options, failure):
     env = ll.make(name, **options)
     state = env.reset(key=jax.random.key(3))[0]
