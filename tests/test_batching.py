@@ -4,6 +4,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 import lerax_like as ll
 
@@ -30,6 +31,7 @@ def test_batch_of_256_pole_masses_equals_single_steps():
     assert np.unique(observations[:, 3]).size > 200
 
 
+@pytest.mark.slow  # 8 s or more of one worker at 42279c7 (docs/testing.md): CI's, not the quick loop's
 def test_step_is_pure_under_jit_vmap_and_grad(getkey):
     env = ll.make("CartPoleContinuous", reward="smooth", theta_threshold_radians=jnp.inf, x_threshold=jnp.inf)
     state, _, _ = env.reset(key=getkey())

@@ -74,6 +74,7 @@ def test_free_running_100_steps():
     assert np.all(np.asarray(infos["solver_ok"]))
 
 
+@pytest.mark.slow  # 8 s or more of one worker at 42279c7 (docs/testing.md): CI's, not the quick loop's
 def test_step_matches_gymnasium_episode_with_autoreset():
     """The full `step` (reward, termination, autoreset) against a Gymnasium episode."""
     reference = gymnasium.make("CartPole-v1")

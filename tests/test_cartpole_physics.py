@@ -107,6 +107,7 @@ def test_energy_and_momentum_conserved_without_force():
     assert abs(float(energy_rate)) < 1e-12
 
 
+@pytest.mark.slow  # 8 s or more of one worker at 42279c7 (docs/testing.md): CI's, not the quick loop's
 def test_upright_is_an_unstable_equilibrium_and_hanging_a_stable_one():
     dynamics = ll.CartPoleDynamics()
     zero = jnp.zeros(1)

@@ -107,6 +107,7 @@ def test_block_on_an_incline_holds_iff_tan_alpha_is_at_most_mu_s():
     np.testing.assert_allclose(ends[-1], [-0.5 * acceleration * t**2, -acceleration * t], rtol=1e-12)
 
 
+@pytest.mark.slow  # 8 s or more of one worker at 42279c7 (docs/testing.md): CI's, not the quick loop's
 def test_bad_friction_is_refused_by_name_and_a_reversal_is_one_switch():
     with pytest.raises(ValueError, match="max_events"):
         _block(max_events=0)

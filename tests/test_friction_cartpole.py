@@ -216,6 +216,7 @@ def test_zero_friction_builds_no_add_on_and_stays_the_plain_cartpole_bit_for_bit
     assert np.array_equal(np.asarray(run(zero, state, actions)[0]), np.asarray(run(plain, state, actions)[0]))
 
 
+@pytest.mark.slow  # 8 s or more of one worker at 42279c7 (docs/testing.md): CI's, not the quick loop's
 def test_the_double_cart_poles_rail_force_is_the_weight_less_the_links_vertical_accelerations():
     # N = (m_c + m_1 + m_2) g + m_1 h_1'' + m_2 h_2'', the heights of the uniform poles' centres
     # written out (h_1 = l_1 cos(t_1) / 2, h_2 = l_1 cos(t_1) + l_2 cos(t_2) / 2), against

@@ -91,6 +91,7 @@ def test_a_tuple_of_conditions_locates_the_first_in_order_not_in_time():
         assert [bool(fired) for fired in solution.event_mask] == [True, False]
 
 
+@pytest.mark.slow  # 8 s or more of one worker at 42279c7 (docs/testing.md): CI's, not the quick loop's
 def test_a_vmapped_batch_of_alarms_matches_each_alone():
     """Under `vmap` every env runs as many segments as the slowest; an env done early idles
     (`IDLE_FRACTION`) and its result is that of its own solve."""

@@ -125,6 +125,7 @@ def test_other_fixed_step_settings_still_go_through_diffeqsolve(integrator, step
     assert tree_allclose(y1, reference, rtol=1e-14, atol=1e-15)
 
 
+@pytest.mark.slow  # 8 s or more of one worker at 42279c7 (docs/testing.md): CI's, not the quick loop's
 @pytest.mark.parametrize("preset", ["rk4", "tsit5"])
 def test_forward_mode_passes_through_one_runge_kutta_step(preset):
     # diffeqsolve switches a Runge-Kutta method's checkpointed stage loop to a plain one

@@ -93,6 +93,7 @@ def test_every_leaf_is_an_array_whatever_the_adjoint(adjoint):
     assert isinstance(env.integrator.adjoint, type(ll.make_adjoint(adjoint)))
 
 
+@pytest.mark.slow  # 8 s or more of one worker at 42279c7 (docs/testing.md): CI's, not the quick loop's
 def test_plain_jit_with_a_users_controller_and_a_gradient_through_it():
     env = ll.make("CartPoleContinuous", solver="tsit5", stepsize_controller=_user_controller())
     _compare_jit_with_filter_jit(env, jr.key(3))

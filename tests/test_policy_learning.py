@@ -36,6 +36,7 @@ def test_policy_trained_through_the_simulator_balances_for_500_steps():
     assert float(jnp.mean(lengths >= 500)) >= 0.95
 
 
+@pytest.mark.slow  # 8 s or more of one worker at 42279c7 (docs/testing.md): CI's, not the quick loop's
 def test_rewarded_steps_count_the_first_rewards_of_a_longer_rollout():
     # What lets every stage of train_policy_curriculum share one compiled update.
     inf = float("inf")

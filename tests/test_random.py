@@ -118,6 +118,7 @@ def test_a_part_that_draws_in_an_env_declared_deterministic_fails_at_once():
         env.reset(key=jr.key(0))
 
 
+@pytest.mark.slow  # 8 s or more of one worker at 42279c7 (docs/testing.md): CI's, not the quick loop's
 def test_policy_return_gives_a_stochastic_env_its_keys():
     # A rollout through noisy observations: its return depends on the key (a
     # deterministic env's parts would get no key at all and fail here).

@@ -114,6 +114,7 @@ def test_quick_study_gives_the_orders(quick_study, solver, order):
         assert abs(slope - order) < 0.5, (schedule, slope)
 
 
+@pytest.mark.slow  # 8 s or more of one worker at 42279c7 (docs/testing.md): CI's, not the quick loop's
 def test_rollout_of_presets_against_scipy():
     rows = preset_rollouts("CartPole", steps=20, presets=("euler", "rk4"), repeats=1)
     errors = {row["solver"]: row["final_error"] for row in rows}

@@ -60,6 +60,7 @@ def _record_pendulum(mass, length, n, seed):
     return jnp.asarray(np.stack(states)), jnp.asarray(np.stack(actions)), jnp.asarray(np.stack(next_states))
 
 
+@pytest.mark.slow  # 8 s or more of one worker at 42279c7 (docs/testing.md): CI's, not the quick loop's
 def test_recovers_pendulum_mass_and_length_from_gymnasium():
     mass, length = 1.4, 0.7
     states, actions, next_states = _record_pendulum(mass, length, 100, seed=5)

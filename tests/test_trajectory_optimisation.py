@@ -2,12 +2,14 @@
 
 import jax.numpy as jnp
 import jax.random as jr
+import pytest
 
 import lerax_like as ll
 from lerax_like.control.learning import optimise_open_loop, rollout_states
 from lerax_like.env import EnvState
 
 
+@pytest.mark.slow  # 8 s or more of one worker at 42279c7 (docs/testing.md): CI's, not the quick loop's
 def test_swing_up_reaches_upright():
     inf = float("inf")
     env = ll.make("CartPoleContinuous", solver="rk4", theta_threshold_radians=inf, x_threshold=inf)

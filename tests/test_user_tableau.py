@@ -91,6 +91,7 @@ def _dense_errors(solver, steps, *, hermite_both_ends: bool):
 STEPS = (8, 16, 32, 64)
 
 
+@pytest.mark.slow  # 8 s or more of one worker at 42279c7 (docs/testing.md): CI's, not the quick loop's
 def test_a_users_tableau_gets_dense_output_of_its_order(tmp_path):
     solver = _user_solver(tmp_path)
     assert ll.solver_facts(solver).order == 3
@@ -103,6 +104,7 @@ def test_a_users_tableau_gets_dense_output_of_its_order(tmp_path):
     assert abs(own_slope - 2) < 0.3, (own_slope, diffrax_own)
 
 
+@pytest.mark.slow  # 8 s or more of one worker at 42279c7 (docs/testing.md): CI's, not the quick loop's
 @pytest.mark.parametrize("name", ["rk4", "heun", "tsit5", "dopri8"])
 def test_dense_output_keeps_the_presets_orders(name):
     # Hermite from both ends is of order min(p, 4); the methods with an interpolant of their
