@@ -69,9 +69,11 @@ def page_code(page: pathlib.Path) -> str:
 
 
 def _run(arguments, cwd, pythonpath=(), environment=None):
-    # This checkout's lerax_like first, whatever the current directory.
+    # This checkout's lerax_like first, whatever the current directory. No PYTEST_ADDOPTS: the
+    # caller's options (a --timings=FILE, which a run's first process empties) are not the page's.
     paths = [*map(str, pythonpath), str(ROOT), os.environ.get("PYTHONPATH", "")]
-    env = {**os.environ, "JAX_PLATFORMS": "cpu", "PYTHONPATH": os.pathsep.join(paths), **(environment or {})}
+    inherited = {name: value for name, value in os.environ.items() if name != "PYTEST_ADDOPTS"}
+    env = {**inherited, "JAX_PLATFORMS": "cpu", "PYTHONPATH": os.pathsep.join(paths), **(environment or {})}
     return subprocess.run([sys.executable, *arguments], cwd=cwd, capture_output=True, text=True, timeout=900, env=env)
 
 
