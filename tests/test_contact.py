@@ -20,7 +20,7 @@ import pytest
 
 import lerax_like as ll
 from lerax_like._segments import integrate_hybrid
-from lerax_like.physics.contact import mass_matrix
+from lerax_like.physics.contact import mass_matrix, with_coordinates
 
 
 GRAVITY = 9.81
@@ -249,3 +249,24 @@ def test_semi_implicit_euler_pushed_into_a_wall_comes_to_rest_without_failing(sc
     assert bool(jnp.all(info["solver_ok"])), np.asarray(info["solver_ok"])
     assert int(jnp.sum(info["impacts"])) >= 4  # every cart reached the wall
     assert float(jnp.max(ys[..., 0])) <= 0.06 + 1e-12  # and none passed it
+
+
+
+@pytest.mark.parametrize(
+    ("dynamics", "size"),
+    [
+        (ll.CartPoleDynamics(pole_mass=0.3, half_length=0.7, cart_mass=1.4), 4),
+        (ll.CartChainDynamics(pole_masses=(0.1, 0.2), pole_lengths=(0.5, 0.8)), 6),
+        (ll.NLinkPendulumDynamics(masses=[1.0, 0.5, 2.0], lengths=[0.3, 1.0, 0.6]), 6),
+    ],
+    ids=["CartPole", "CartChain", "NLinkPendulum"],
+)
+def test_a_chains_closed_form_mass_matrix_is_the_hessian_of_its_energy(dynamics, size):
+    # Impacts read M(q) from a chain's own closed form (`mass_matrix(y)`); the impulse map is
+    # consistent with the energy only if it is the Hessian of that energy in the velocities.
+    for y in np.random.default_rng(3).normal(size=(5, size)):
+        y = jnp.asarray(y)
+        _, q_dot = dynamics.coordinates(y)
+        hessian = jax.hessian(lambda v: dynamics.energy(with_coordinates(dynamics, y, velocities=v)))(q_dot)
+        assert isinstance(dynamics, ll.physics.AbstractChainDynamics) and hasattr(dynamics, "mass_matrix")
+        np.testing.assert_allclose(np.asarray(mass_matrix(dynamics, y)), np.asarray(hessian), rtol=4 * np.finfo(float).eps, atol=0)

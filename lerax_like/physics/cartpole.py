@@ -80,6 +80,14 @@ class CartPoleDynamics(AbstractChainDynamics):
         )
         return kinetic + m * self.gravity * l * jnp.cos(theta)
 
+    def mass_matrix(self, y: State) -> Float[Array, "2 2"]:
+        """`M(q)`, the Hessian of `energy` in `(x_dot, theta_dot)`, in closed form."""
+        off_diagonal = self.pole_mass * self.half_length * jnp.cos(y[2])
+        return jnp.stack([
+            jnp.stack([self.total_mass, off_diagonal]),
+            jnp.stack([off_diagonal, (4.0 / 3.0) * self.pole_mass * self.half_length**2]),
+        ])
+
     def momentum(self, y: State) -> Scalar:
         """Horizontal momentum of cart and pole; conserved when the force is zero."""
         _, x_dot, theta, theta_dot = y

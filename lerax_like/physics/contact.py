@@ -168,7 +168,15 @@ def with_coordinates(dynamics, y: State, *, positions=None, velocities=None) -> 
 
 
 def mass_matrix(dynamics, y: State) -> Float[Array, "q q"]:
-    """`M(q)`: the Hessian of the energy in the generalised velocities (the potential has none)."""
+    """`M(q)`: the Hessian of the energy in the generalised velocities (the potential has none).
+
+    A chain that gives its own closed form (`mass_matrix(y)`: the cart-pole, the chains of
+    `lerax_like.physics.chain`) is read from it: the same matrix (tests/test_contact.py), and
+    a gradient program through located contacts no longer compiles a Hessian of the energy,
+    differentiated again, at every evaluation of a guard.
+    """
+    if isinstance(dynamics, AbstractChainDynamics) and callable(getattr(dynamics, "mass_matrix", None)):
+        return dynamics.mass_matrix(y)
     _, q_dot = dynamics.coordinates(y)
     return jax.hessian(lambda v: dynamics.energy(with_coordinates(dynamics, y, velocities=v)))(q_dot)
 
