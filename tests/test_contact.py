@@ -261,7 +261,7 @@ def test_semi_implicit_euler_pushed_into_a_wall_comes_to_rest_without_failing(sc
     ],
     ids=["CartPole", "CartChain", "NLinkPendulum"],
 )
-def test_a_chains_closed_form_mass_matrix_is_the_hessian_of_its_energy(dynamics, size):
+def test_a_chains_closed_form_mass_matrix_and_potential_are_its_energy_s(dynamics, size):
     # Impacts read M(q) from a chain's own closed form (`mass_matrix(y)`); the impulse map is
     # consistent with the energy only if it is the Hessian of that energy in the velocities.
     for y in np.random.default_rng(3).normal(size=(5, size)):
@@ -270,3 +270,7 @@ def test_a_chains_closed_form_mass_matrix_is_the_hessian_of_its_energy(dynamics,
         hessian = jax.hessian(lambda v: dynamics.energy(with_coordinates(dynamics, y, velocities=v)))(q_dot)
         assert isinstance(dynamics, ll.physics.AbstractChainDynamics) and hasattr(dynamics, "mass_matrix")
         np.testing.assert_allclose(np.asarray(mass_matrix(dynamics, y)), np.asarray(hessian), rtol=4 * np.finfo(float).eps, atol=0)
+        # And its potential energy (which cart friction's normal force differentiates) is the
+        # energy at rest.
+        at_rest = with_coordinates(dynamics, y, velocities=jnp.zeros_like(q_dot))
+        assert float(dynamics.potential_energy(y)) == float(dynamics.energy(at_rest))

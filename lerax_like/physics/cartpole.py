@@ -78,7 +78,11 @@ class CartPoleDynamics(AbstractChainDynamics):
             + m * l * jnp.cos(theta) * x_dot * theta_dot
             + (2.0 / 3.0) * m * l**2 * theta_dot**2
         )
-        return kinetic + m * self.gravity * l * jnp.cos(theta)
+        return kinetic + self.potential_energy(y)
+
+    def potential_energy(self, y: State) -> Scalar:
+        """The pole's gravitational potential energy, the part of `energy` without velocities."""
+        return self.pole_mass * self.gravity * self.half_length * jnp.cos(y[2])
 
     def mass_matrix(self, y: State) -> Float[Array, "2 2"]:
         """`M(q)`, the Hessian of `energy` in `(x_dot, theta_dot)`, in closed form."""

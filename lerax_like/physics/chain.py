@@ -146,7 +146,11 @@ class NLinkPendulumDynamics(AbstractChainDynamics):
     def energy(self, y: State) -> Scalar:
         n = self.n_links
         kinetic = 0.5 * y[n:] @ self.mass_matrix(y) @ y[n:]
-        return kinetic + chain_potential_energy(self.masses, self.lengths, self.gravity, y[:n])
+        return kinetic + self.potential_energy(y)
+
+    def potential_energy(self, y: State) -> Scalar:
+        """The links' gravitational potential energy, the part of `energy` without velocities."""
+        return chain_potential_energy(self.masses, self.lengths, self.gravity, y[: self.n_links])
 
 
 @final
@@ -198,7 +202,11 @@ class CartChainDynamics(AbstractChainDynamics):
         n = self.n_links
         velocities = y[1 + n :]
         kinetic = 0.5 * velocities @ self.mass_matrix(y) @ velocities
-        return kinetic + chain_potential_energy(self.pole_masses, self.pole_lengths, self.gravity, y[1 : 1 + n])
+        return kinetic + self.potential_energy(y)
+
+    def potential_energy(self, y: State) -> Scalar:
+        """The poles' gravitational potential energy, the part of `energy` without velocities."""
+        return chain_potential_energy(self.pole_masses, self.pole_lengths, self.gravity, y[1 : 1 + self.n_links])
 
     def momentum(self, y: State) -> Scalar:
         """Horizontal momentum of cart and poles; conserved when the force is zero."""

@@ -167,6 +167,10 @@ def with_coordinates(dynamics, y: State, *, positions=None, velocities=None) -> 
     return y + back
 
 
+def _closed_form(dynamics) -> bool:
+    return isinstance(dynamics, AbstractChainDynamics) and callable(getattr(dynamics, "mass_matrix", None))
+
+
 def mass_matrix(dynamics, y: State) -> Float[Array, "q q"]:
     """`M(q)`: the Hessian of the energy in the generalised velocities (the potential has none).
 
@@ -175,7 +179,7 @@ def mass_matrix(dynamics, y: State) -> Float[Array, "q q"]:
     a gradient program through located contacts no longer compiles a Hessian of the energy,
     differentiated again, at every evaluation of a guard.
     """
-    if isinstance(dynamics, AbstractChainDynamics) and callable(getattr(dynamics, "mass_matrix", None)):
+    if _closed_form(dynamics):
         return dynamics.mass_matrix(y)
     _, q_dot = dynamics.coordinates(y)
     return jax.hessian(lambda v: dynamics.energy(with_coordinates(dynamics, y, velocities=v)))(q_dot)
@@ -186,8 +190,10 @@ def mass_entry(dynamics, y: State, k: int) -> Scalar:
 
     One direction, where `mass_matrix` differentiates along all of them: a normal force read
     at every evaluation of a field (`CartFriction`) needs this entry only, and a gradient
-    program differentiates each computation again.
+    program differentiates each computation again. A chain's closed form where it has one.
     """
+    if _closed_form(dynamics):
+        return dynamics.mass_matrix(y)[k, k]
     _, q_dot = dynamics.coordinates(y)
     unit = jnp.zeros_like(q_dot).at[k].set(1.0)
     energy = lambda v: dynamics.energy(with_coordinates(dynamics, y, velocities=v))

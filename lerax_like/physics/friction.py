@@ -108,9 +108,14 @@ class CartFriction(AbstractCoulombFriction):
     # `dynamics: Any`: duck-typed, whatever has the fields `check` asks for.
     def normal_force(self, dynamics: Any, y: State, acceleration: Float[Array, " q"]) -> Scalar:
         q, q_dot = dynamics.coordinates(y)
-        potential = lambda p: dynamics.energy(
-            with_coordinates(dynamics, y, positions=p, velocities=jnp.zeros_like(q_dot))
-        )
+        if callable(getattr(dynamics, "potential_energy", None)):
+            # The dynamics' own (the chains'): the same values, without differentiating the
+            # kinetic terms at zero velocity, twice, in every gradient program.
+            potential = lambda p: dynamics.potential_energy(with_coordinates(dynamics, y, positions=p))
+        else:
+            potential = lambda p: dynamics.energy(
+                with_coordinates(dynamics, y, positions=p, velocities=jnp.zeros_like(q_dot))
+            )
         slope, curvature = jax.jvp(jax.grad(potential), (q,), (q_dot,))
         heights = (slope @ acceleration + curvature @ q_dot) / dynamics.gravity
         return dynamics.gravity * mass_entry(dynamics, y, 0) + heights
