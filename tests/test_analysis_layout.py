@@ -4,7 +4,10 @@ gradient tools went: the CHANGELOG names each new place)."""
 import subprocess
 import sys
 
+import pytest
 
+
+@pytest.mark.slow  # 8.1 s of one worker at 4f7dc26 (docs/testing.md): CI's, not the quick loop's
 def test_our_own_modules_import_with_no_deprecation_warning():
     # A fresh interpreter: a module imported earlier in this process would not warn again.
     code = (

@@ -86,6 +86,7 @@ def _violations(paths) -> list[str]:
     ]
 
 
+@pytest.mark.slow  # 3.7 s of one worker at 4f7dc26 (docs/testing.md): CI's, not the quick loop's
 def test_no_module_imports_another_modules_private_name():
     found = _violations(PACKAGE.rglob("*.py"))
     assert not found, "private names imported across modules:\n" + "\n".join(found)

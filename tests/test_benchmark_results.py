@@ -53,6 +53,7 @@ def test_quick_results_go_to_their_own_folder(tmp_path, monkeypatch):
     assert text.count("No results recorded yet") == len(BENCHMARKS)
 
 
+@pytest.mark.slow  # 3.7 s of one worker at 4f7dc26 (docs/testing.md): CI's, not the quick loop's
 def test_a_benchmark_whose_peer_is_missing_is_skipped_with_the_install_hint(monkeypatch, capsys):
     import dataclasses
 

@@ -35,6 +35,7 @@ def actions():
     "solver, rtol",
     [("euler", 1e-6), ("rk4", 1e-6), pytest.param("tsit5", 1e-4, marks=pytest.mark.slow)],  # tsit5: about 17 s
 )
+@pytest.mark.slow  # up to 3.9 s a case of one worker at 4f7dc26 (docs/testing.md): CI's, not the quick loop's
 def test_gradients_match_central_finite_differences(solver, rtol, actions):
     env = ll.make("CartPoleContinuous", solver=solver, theta_threshold_radians=jnp.inf, x_threshold=jnp.inf)
     loss = eqx.filter_jit(_loss)

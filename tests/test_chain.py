@@ -234,6 +234,7 @@ def test_construction_checks():
     assert batched.dynamics.lengths.shape == (4, 3)
 
 
+@pytest.mark.slow  # 4.1 s of one worker at 4f7dc26 (docs/testing.md): CI's, not the quick loop's
 def test_scenes_step_and_tasks(getkey):
     balance = ll.DoubleCartPole()
     state, observation, _ = balance.reset(key=getkey())

@@ -377,6 +377,7 @@ def test_parameters_may_be_traced():
     assert envs.dynamics.gravity.shape == (3,)
 
 
+@pytest.mark.slow  # 3.3 s of one worker at 4f7dc26 (docs/testing.md): CI's, not the quick loop's
 def test_gradient_through_projected_semi_implicit_steps():
     # The scenes stay differentiable: d(loss)/d(gravity) through 30 Pendulum steps, in
     # which the speed clip binds at some steps, against central finite differences.

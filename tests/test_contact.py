@@ -187,6 +187,7 @@ def test_the_cart_wall_impact_is_impulse_consistent():
     np.testing.assert_allclose(lost, (1 - e**2) * effective_mass * 1.3**2 / 2, rtol=1e-12)
 
 
+@pytest.mark.slow  # 4.7 s of one worker at 4f7dc26 (docs/testing.md): CI's, not the quick loop's
 def test_walls_and_end_stops_are_chosen_by_keyword_also_through_gymnasium():
     import gymnasium
 

@@ -85,6 +85,7 @@ def test_convergence_order(solver, order, exponents, controller, reference):
     assert abs(_fitted_order(solver, exponents, reference, controller) - order) < 0.3
 
 
+@pytest.mark.slow  # 6.8 s of one worker at 4f7dc26 (docs/testing.md): CI's, not the quick loop's
 def test_adaptive_tsit5_is_within_1e_7(reference):
     env = _env(0.02, "tsit5", diffrax.PIDController(rtol=1e-9, atol=1e-12))
     y, ok = _final_state(env, jnp.asarray(50))

@@ -189,6 +189,7 @@ _cartpole_states = st.tuples(
 _two_steps = eqx.filter_jit(lambda env, y0, actions, key: _run(env, y0, actions, key))
 
 
+@pytest.mark.slow  # 5.8 s of one worker at 4f7dc26 (docs/testing.md): CI's, not the quick loop's
 @settings(max_examples=12, deadline=None, derandomize=True)
 @given(_cartpole_parameters, _cartpole_states, st.floats(-1.0, 1.0), st.sampled_from(["tsit5", "euler"]))
 def test_cartpole_steps_are_finite_and_flags_consistent(parameters, y0, action, solver):
@@ -311,6 +312,7 @@ def _regular_rewards(env, key):
 
 
 @pytest.mark.parametrize("name, options", VARIANTS)
+@pytest.mark.slow  # up to 4.3 s a case of one worker at 4f7dc26 (docs/testing.md): CI's, not the quick loop's
 def test_worst_reward_bounds_every_regular_reward(name, options):
     env = ll.make(name, **options)
     rewards, regular = _regular_rewards(env, jax.random.key(0))
@@ -369,6 +371,7 @@ def test_a_forced_failure_pays_at_most_the_worst_reward(name, options, failure):
     np.testing.assert_array_equal(next_state.y, state.y)
 
 
+@pytest.mark.slow  # 3.4 s of one worker at 4f7dc26 (docs/testing.md): CI's, not the quick loop's
 def test_overflow_covers_every_scene_that_does_not_clip_its_state():
     # The overflow case above runs for these; the others clip or wrap their state.
     unclipped = {name for name, scene in ll.SCENES.items() if not scene.projects_state()}

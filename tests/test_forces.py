@@ -213,6 +213,7 @@ def _trajectory(dynamics, y0, t1):
     ],
     ids=["cart-pole", "double cart-pole"],
 )
+@pytest.mark.slow  # up to 2.8 s a case of one worker at 4f7dc26 (docs/testing.md): CI's, not the quick loop's
 def test_undamped_end_stops_conserve_energy_with_their_potential(physics, y0):
     dynamics = ForcedDynamics(physics, (EndStops(end_stop_stiffness=1e4, track_limit=0.5),))
     ys = eqx.filter_jit(_trajectory)(dynamics, y0, 3.0)

@@ -152,6 +152,7 @@ def test_space_bounds_are_numpy_inside_jit(name):
         assert isinstance(space.low, np.ndarray) and low.shape == space.shape
 
 
+@pytest.mark.slow  # 3.5 s of one worker at 4f7dc26 (docs/testing.md): CI's, not the quick loop's
 def test_space_bounds_follow_traced_parameters():
     """Bounds computed from parameters that are traced (the env an argument of jit) follow them."""
     env = ll.CartPole()

@@ -113,6 +113,7 @@ def test_forward_mode_jacfwd(preset):
     assert report.passed(_rtol(env)), str(report)
 
 
+@pytest.mark.slow  # 7.1 s of one worker at 4f7dc26 (docs/testing.md): CI's, not the quick loop's
 def test_checkpoint_adjoint_refuses_forward_mode_and_names_the_fix():
     # JAX's own message names no fix (issue 29); a rollout and a single step (here with located
     # contacts) re-raise it naming with_adjoint. Refused when traced, so nothing is compiled.

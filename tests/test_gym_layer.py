@@ -451,6 +451,7 @@ def test_vector_env_refuses_invalid_actions():
             ours.step(actions)
 
 
+@pytest.mark.slow  # 3.3 s of one worker at 4f7dc26 (docs/testing.md): CI's, not the quick loop's
 def test_a_stochastic_scene_gets_seeded_keys_through_the_layer(noisy_cartpole):
     # Every built-in scene is deterministic; the layer's key path is for scenes like this.
     def episode(env):

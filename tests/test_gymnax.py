@@ -9,6 +9,7 @@ import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
 import pytest
+from conftest import hybrid
 
 import lerax_like as ll
 
@@ -29,7 +30,14 @@ def _action(env, params, key):
     return env.action_space(params).sample(key)
 
 
-@pytest.mark.parametrize("name", lerax_gymnax.registered_envs())
+# A hybrid scene's cases ("BouncingBall-v0" is BouncingBall's) are CI's, not the quick loop's.
+@pytest.mark.parametrize(
+    "name",
+    [
+        pytest.param(name, marks=[pytest.mark.slow] if hybrid(name.rsplit("-v", 1)[0]) else [], id=name)
+        for name in lerax_gymnax.registered_envs()
+    ],
+)
 def test_observations_are_the_functional_envs(name, getkey):
     """Same scene, same keys: `reset` and `step_env` give the functional env's states,
     observations, rewards and terminations exactly."""

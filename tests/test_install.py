@@ -143,6 +143,7 @@ def test_the_readme_installs_in_a_mode_that_type_checkers_follow():
 
 @pytest.mark.skipif(not _editable_install(), reason="lerax_like is not installed in editable mode here (a source "
                     "tree or a plain install): there is no editable install to resolve")
+@pytest.mark.slow  # 6.2 s of one worker at 4f7dc26 (docs/testing.md): CI's, not the quick loop's
 def test_basedpyright_resolves_the_editable_install_from_outside_the_clone(tmp_path):
     pytest.importorskip("basedpyright")
     assert ROOT not in tmp_path.parents

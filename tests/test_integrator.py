@@ -63,6 +63,7 @@ CASES = [(preset, ll.CartPoleContinuous) for preset in FIXED_STEP_PRESETS] + [
 
 
 @pytest.mark.parametrize(("preset", "scene_cls"), CASES)
+@pytest.mark.slow  # up to 6.3 s a case of one worker at 4f7dc26 (docs/testing.md): CI's, not the quick loop's
 def test_one_constant_step_is_diffeqsolves_step(preset, scene_cls):
     scene = scene_cls()
     integrator = _integrator(preset)

@@ -156,6 +156,7 @@ def _module_level_imports(path: pathlib.Path) -> set[str]:
     return names
 
 
+@pytest.mark.slow  # 3.3 s of one worker at 4f7dc26 (docs/testing.md): CI's, not the quick loop's
 def test_the_gradient_tools_sit_above_the_env_and_the_integrator_sits_below_them():
     # The adjoint is the integrator's configuration (`integrate/_adjoint.py`): the env and the
     # integrator import nothing of `lerax_like.gradients`, which uses them; the gradient tools

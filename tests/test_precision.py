@@ -87,6 +87,7 @@ def test_in_float64_no_preset_and_no_ordinary_tolerance_is_touched():
         env.step(state, 1, key=jax.random.key(1))
 
 
+@pytest.mark.slow  # 3.9 s of one worker at 4f7dc26 (docs/testing.md): CI's, not the quick loop's
 def test_gradcheck_refuses_float32_and_says_why():
     from lerax_like.gradients import gradcheck
 

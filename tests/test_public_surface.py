@@ -64,6 +64,7 @@ def test_the_names_that_went_are_gone():
         assert not hasattr(importlib.import_module(module), old), (module, old)
 
 
+@pytest.mark.slow  # 4.0 s of one worker at 4f7dc26 (docs/testing.md): CI's, not the quick loop's
 def test_the_package_uses_no_name_that_went():
     """Only the Gymnasium layer's own table is still called by its name."""
     aliases = {"gym/_specs.py"}

@@ -123,6 +123,7 @@ def test_a_stochastic_scene_restarts_in_the_step_as_in_a_second_call(noisy_cartp
     assert restarts >= 8
 
 
+@pytest.mark.slow  # 6.2 s of one worker at 4f7dc26 (docs/testing.md): CI's, not the quick loop's
 def test_a_pickled_vec_env_continues_exactly_in_a_process_without_float64(tmp_path):
     # The starts drawn ahead travel as NumPy and go to the device again on load, in float64,
     # even where JAX's default precision is float32: restarts continue DummyVecEnv's numbers.
@@ -279,6 +280,7 @@ print(started_by_import, jax.config.values["jax_cpu_enable_async_dispatch"])
     [(False, "", False), (False, ", inline_dispatch=False", True), (True, "", True)],
     ids=["default", "opted-out", "jax-started-first"],
 )
+@pytest.mark.slow  # up to 4.1 s a case of one worker at 4f7dc26 (docs/testing.md): CI's, not the quick loop's
 def test_make_vec_env_makes_jax_dispatch_inline_only_before_jax_starts(jax_first, keywords, async_dispatch):
     # A fresh process, as a user's script: importing lerax_like does not start JAX's CPU
     # client; the VecEnv then makes its dispatch inline unless told not to, and leaves the

@@ -278,6 +278,7 @@ def test_energy_is_conserved_with_zero_input_where_claimed(name):
         assert drift < 1e-9 * scale, f"{name}: energy drifts by {drift:.2e} over 50 steps"
 
 
+@pytest.mark.slow  # 5.3 s of one worker at 4f7dc26 (docs/testing.md): CI's, not the quick loop's
 def test_acrobot_nips_claims_no_energy_and_indeed_conserves_none():
     # The NeurIPS equations drop a Coriolis term: the book energy is not conserved.
     with jax.enable_x64(True):

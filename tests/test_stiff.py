@@ -58,6 +58,7 @@ def test_van_der_pol_kvaerno5_reaches_t3000_as_radau():
 @pytest.mark.parametrize(
     "preset", [pytest.param("kvaerno3", marks=pytest.mark.slow), "kvaerno4", pytest.param("kvaerno5", marks=pytest.mark.slow)]
 )
+@pytest.mark.slow  # 3.3 s of one worker at 4f7dc26 (docs/testing.md): CI's, not the quick loop's
 def test_a_diverged_trial_step_is_rejected_and_retried_smaller(preset):
     # From this state (the second start of `lerax-like study VanDerPol`), Kvaerno4's
     # second trial step diverges to infinity; a plain diffrax 0.7.2 PIDController then

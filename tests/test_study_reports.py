@@ -133,6 +133,7 @@ def test_a_bad_tableau_is_refused_by_name_before_any_solve(tmp_path, monkeypatch
     assert "Traceback" not in error
 
 
+@pytest.mark.slow  # 4.1 s of one worker at 4f7dc26 (docs/testing.md): CI's, not the quick loop's
 def test_substeps_set_the_sweep_from_the_command_line(capsys):
     from lerax_like.analysis.sweeps import default_sweeps, with_substeps
 

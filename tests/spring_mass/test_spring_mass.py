@@ -65,6 +65,7 @@ def test_energy_decays_at_the_damping_rate():
         np.testing.assert_allclose(float(rate), float(-dynamics.damping * y[1] ** 2), rtol=1e-12)
 
 
+@pytest.mark.slow  # 4.4 s of one worker at 4f7dc26 (docs/testing.md): CI's, not the quick loop's
 def test_it_is_registered_with_no_line_changed_in_the_package():
     assert ll.SCENES["SpringMass"] is SpringMass
     assert not hasattr(ll, "SpringMass")  # registered, not part of the package's names
