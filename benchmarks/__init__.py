@@ -103,6 +103,7 @@ BENCHMARKS = {
         Benchmark("throughput", "env steps per second against the number of envs, beside gymnax and Gymnasium", (_GYMNAX, _PLOTS)),
         Benchmark("profile_step", "where the time of a vmapped env step goes, part by part, beside gymnax", (_GYMNAX,)),
         Benchmark("compile_time", "compile time of 1000-step scanned programs, beside gymnax", (_GYMNAX,)),
+        Benchmark("contact_compile", "compile time of gradient programs through located walls and friction, beside the same cart-pole without them"),
         Benchmark("adaptive_vmap", "adaptive solvers under vmap: one hard env in a batch, and the remedies"),
         Benchmark("latency", "one Gymnasium-layer step against the JAX floor and Gymnasium's own step"),
         Benchmark("gym_vector", "the Gymnasium-layer vector env of every id against the XLA floor and Gymnasium's vector envs"),

@@ -400,6 +400,20 @@ def compile_time(folder, link):
             "vmapped):", ""] + _table(["program", *implementations], table)
 
 
+def contact_compile(folder, link):
+    rows = _read_csv(folder, "contact_compile.csv")
+    if rows is None:
+        return []
+    return ["Trace, lowering and XLA compilation of a fresh `jax.jit` of a loss over `CartPoleContinuous` "
+            "(4 envs x 12 steps), wall-clock, minimum of fresh compiles, and against the same program "
+            "without events (`smooth`):", ""] + _table(
+        ["solver", "program", "scene", "trace + lowering", "compile", "total", "vs smooth"],
+        [[row["solver"], row["program"], row["scene"], f"{float(row['trace_lower_s']):.2f} s",
+          f"{float(row['compile_s']):.2f} s", f"{float(row['total_s']):.2f} s", f"{float(row['vs_smooth']):.1f}x"]
+         for row in rows],
+    )
+
+
 def adaptive_vmap(folder, link):
     lines = []
     for header, rows, _ in _runs(folder, "adaptive_vmap"):
@@ -851,6 +865,7 @@ SECTIONS = {
     "throughput": throughput,
     "profile_step": profile_step,
     "compile_time": compile_time,
+    "contact_compile": contact_compile,
     "adaptive_vmap": adaptive_vmap,
     "latency": latency,
     "gym_vector": gym_vector,
