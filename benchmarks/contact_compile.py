@@ -25,9 +25,9 @@ import jax.random as jr
 
 jax.config.update("jax_enable_x64", True)
 
-import lerax_like as ll  # noqa: E402
-from benchmarks import benchmark_parser, output_folder  # noqa: E402
-from lerax_like.analysis.recording import write_csv  # noqa: E402
+import lerax_like as ll
+from benchmarks import benchmark_parser, output_folder
+from lerax_like.analysis.recording import write_csv
 
 ENVS, STEPS = 4, 12
 SCENES = {
