@@ -8,8 +8,8 @@ different steps, so that one env finishes its step while another is still in it.
 
 The main test runs over every scene in `lerax_like.SCENES` (a scene is covered the moment it
 registers) and every solver preset it accepts, and walled cart-poles with every explicit
-preset: reverse and forward mode of a short rollout loss, batched, against central
-differences per env.
+preset (CI runs a covering set of these pairs: `ALL_PAIRS` below): reverse and forward mode
+of a short rollout loss, batched, against central differences per env.
 """
 
 import dataclasses
@@ -107,12 +107,16 @@ def _walled(scene):
 # The whole matrix (every scene x every preset, and the walled cart-poles with every explicit
 # preset) takes close to an hour on 2 cores, most of it compiling adaptive and contact
 # gradients; CI runs a covering set: every scene with its own default integrator (what a user
-# gets), every preset on Pendulum and on the walled CartPoleContinuous (the batched crash of
-# issue 29 was Euler and RK4 there), and BouncingBall with a fixed and an adaptive preset.
+# gets), every preset on Pendulum, the walled CartPoleContinuous with Euler and RK4 (the
+# batched crash of issue 29) and Tsit5 (an adaptive step and its interpolant), and
+# BouncingBall with a fixed and an adaptive preset. Every explicit preset's gradient through
+# located impacts, in both modes, is checked on the ball in tests/test_contact_gradients.py.
 # `LERAX_LIKE_ALL_GRADIENT_PAIRS=1 python -m pytest tests/test_batched_gradients.py` runs all.
 ALL_PAIRS = os.environ.get("LERAX_LIKE_ALL_GRADIENT_PAIRS") == "1"
-EVERY_PRESET_ON = ("Pendulum", "CartPoleContinuous+walls")
-ALSO = {("BouncingBall", "euler"), ("BouncingBall", "tsit5")}
+EVERY_PRESET_ON = ("Pendulum",)
+ALSO = {("BouncingBall", "euler"), ("BouncingBall", "tsit5")} | {
+    ("CartPoleContinuous+walls", preset) for preset in ("euler", "rk4", "tsit5")
+}
 # The simplest walker's rollout loss is not differentiable in the initial state at two of the
 # four resets (measured over 50 steps, one heel strike each: central differences at h and h/2
 # disagree by a factor 2 and more, the AD derivative by 1.08 and 0.29 relative), so central

@@ -2,11 +2,12 @@
 
 A 50-step rollout loss through at least two impacts, differentiated with respect to an initial
 state component, a physical parameter and the restitution, for every explicit solver preset,
-on `BouncingBall`: AD (the default reverse mode, event times differentiated implicitly)
-within 1e-6 relative of central differences of the same rollout. The walled cart-pole's
-impacts, with every explicit preset, are checked the same way (restitution, physical
-parameters and start, through a second impact), batched and in both modes, in
-tests/test_batched_gradients.py.
+on `BouncingBall` (a wall, then the floor): AD, in reverse mode (the default, event times
+differentiated implicitly) and in forward mode, batched over the shifted points, within 1e-6
+relative of central differences of the same rollout. The walled cart-pole's impacts (a
+chain's impact map: restitution, physical parameters and start, through a second impact)
+are checked the same way, batched over distinct resets and in both modes, with Euler, RK4
+and Tsit5, in tests/test_batched_gradients.py.
 """
 
 import equinox as eqx
@@ -30,38 +31,59 @@ def _ball(solver):
     return env, y0, actions, lambda e: e.dynamics.gravity
 
 
-def _check_against_central_differences(loss, theta, min_impacts: int, label: str) -> None:
+def _check_against_central_differences(loss, theta, min_impacts: int, label: str, forward_loss=None) -> None:
     """AD of `loss` (returning the value and `(impacts, all solves ok)`) at `theta` within 1e-6
-    relative of central differences, the same impacts at every shifted point."""
+    relative of central differences, the same impacts at every shifted point: reverse mode,
+    and forward mode (`jax.jacfwd`) of `forward_loss` where given (the same loss through an
+    env with the forward-mode adjoint)."""
     n = theta.shape[0]
     steps = 1e-6 * np.maximum(1.0, np.abs(np.asarray(theta)))
     shifts = [np.zeros(n)] + [sign * steps[i] * np.eye(n)[i] for i in range(n) for sign in (1, -1)]
     points = theta + jnp.asarray(np.array(shifts))
-    # One compiled program: the gradient at theta and the values at the shifted points.
-    (values, (impacts, ok)), grads = jax.jit(jax.vmap(jax.value_and_grad(loss, has_aux=True)))(points)
+
+    # One compiled program: the gradient at theta and the values at the shifted points (both
+    # batched over the points), and forward mode's derivatives at them.
+    @jax.jit
+    def derivatives(points):
+        reverse = jax.vmap(jax.value_and_grad(loss, has_aux=True))(points)
+        forward = None if forward_loss is None else jax.vmap(jax.jacfwd(forward_loss, has_aux=True))(points)
+        return reverse, forward
+
+    ((values, (impacts, ok)), grads), forward = derivatives(points)
     assert bool(jnp.all(ok))
     assert int(jnp.min(impacts)) == int(jnp.max(impacts)) >= min_impacts  # the same impacts at every point
     fd = np.array([(values[1 + 2 * i] - values[2 + 2 * i]) / (2 * steps[i]) for i in range(n)])
-    ad = np.asarray(grads[0])
-    relative = np.abs(ad - fd) / np.abs(fd)
-    assert np.all(relative <= 1e-6), f"{label}: AD {ad}, FD {fd}, relative error {relative}"
+    for mode, ad in (("reverse", grads), ("forward", None if forward is None else forward[0])):
+        if ad is None:
+            continue
+        ad = np.asarray(ad[0])
+        relative = np.abs(ad - fd) / np.abs(fd)
+        assert np.all(relative <= 1e-6), f"{label}, {mode} mode: AD {ad}, FD {fd}, relative error {relative}"
 
 
+# Every explicit preset's gradient through located impacts, in both modes, is checked here
+# (tests/test_batched_gradients.py checks the walled cart-pole's, a chain's impact map, with
+# Euler, RK4 and Tsit5).
 @pytest.mark.slow
 @pytest.mark.parametrize("solver", EXPLICIT)
 def test_rollout_gradient_through_impacts_matches_finite_differences(solver):
     env, y0, actions, physical = _ball(solver)
 
-    def loss(theta):
-        # theta: the initial x, a physical parameter, the restitution.
-        e = eqx.tree_at(lambda e: (physical(e), e.contacts[0].restitution), env, (theta[1], theta[2]))
-        state = ll.EnvState(y=y0.at[0].set(theta[0]), steps=jnp.zeros((), dtype=int))
-        ys, info = ll.rollout(e, state, actions)
-        value = jnp.sum(ys[:, :2] ** 2) + 0.1 * jnp.sum(ys[:, 2:] ** 2)
-        return value, (jnp.sum(info["impacts"]), jnp.all(info["solver_ok"]))
+    def loss_through(env):
+        def loss(theta):
+            # theta: the initial x, a physical parameter, the restitution.
+            e = eqx.tree_at(lambda e: (physical(e), e.contacts[0].restitution), env, (theta[1], theta[2]))
+            state = ll.EnvState(y=y0.at[0].set(theta[0]), steps=jnp.zeros((), dtype=int))
+            ys, info = ll.rollout(e, state, actions)
+            value = jnp.sum(ys[:, :2] ** 2) + 0.1 * jnp.sum(ys[:, 2:] ** 2)
+            return value, (jnp.sum(info["impacts"]), jnp.all(info["solver_ok"]))
+
+        return loss
 
     theta = jnp.array([y0[0], float(physical(env)), 0.8])
-    _check_against_central_differences(loss, theta, 2, solver)
+    _check_against_central_differences(
+        loss_through(env), theta, 2, solver, forward_loss=loss_through(ll.with_adjoint(env, "forward"))
+    )
 
 
 @pytest.mark.slow
