@@ -185,21 +185,6 @@ def mass_matrix(dynamics, y: State) -> Float[Array, "q q"]:
     return jax.hessian(lambda v: dynamics.energy(with_coordinates(dynamics, y, velocities=v)))(q_dot)
 
 
-def mass_entry(dynamics, y: State, k: int) -> Scalar:
-    """`M(q)[k, k]`: the energy's second derivative along the `k`-th generalised velocity.
-
-    One direction, where `mass_matrix` differentiates along all of them: a normal force read
-    at every evaluation of a field (`CartFriction`) needs this entry only, and a gradient
-    program differentiates each computation again. A chain's closed form where it has one.
-    """
-    if _closed_form(dynamics):
-        return dynamics.mass_matrix(y)[k, k]
-    _, q_dot = dynamics.coordinates(y)
-    unit = jnp.zeros_like(q_dot).at[k].set(1.0)
-    energy = lambda v: dynamics.energy(with_coordinates(dynamics, y, velocities=v))
-    return jax.jvp(lambda v: jax.jvp(energy, (v,), (unit,))[1], (q_dot,), (unit,))[1]
-
-
 @final
 class Walls(AbstractImpulseContact):
     """Rigid walls at the ends of a cart's rail, `x = -track_limit` and `x = +track_limit`.
@@ -230,7 +215,6 @@ __all__ = [
     "AbstractImpulseContact",
     "MechanicalDynamics",
     "Walls",
-    "mass_entry",
     "mass_matrix",
     "with_coordinates",
 ]

@@ -29,7 +29,7 @@ import numpy as np
 from .._fields import NONNEGATIVE, AbstractParametrised, concrete, option
 from .._types import Array, Float, Scalar, State
 from ._base import AbstractDynamics, require_attributes
-from .contact import mass_entry, with_coordinates
+from .contact import mass_matrix, with_coordinates
 
 
 def check_coulomb(owner) -> None:
@@ -118,7 +118,7 @@ class CartFriction(AbstractCoulombFriction):
             )
         slope, curvature = jax.jvp(jax.grad(potential), (q,), (q_dot,))
         heights = (slope @ acceleration + curvature @ q_dot) / dynamics.gravity
-        return dynamics.gravity * mass_entry(dynamics, y, 0) + heights
+        return dynamics.gravity * mass_matrix(dynamics, y)[0, 0] + heights
 
     def check(self, dynamics: AbstractDynamics) -> None:
         super().check(dynamics)
