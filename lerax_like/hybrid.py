@@ -52,7 +52,7 @@ import optimistix
 from ._segments import AbstractModes, Settled, hermite_dip
 from ._types import Array, Bool, Float, Input, Scalar, ScalarLike, State
 from .physics import AbstractDynamics
-from .physics.contact import AbstractContact, AbstractImpulseContact, MechanicalDynamics, mass_matrix, with_coordinates
+from .physics.contact import AbstractContact, AbstractImpulseContact, MechanicalDynamics, with_coordinates
 
 
 # A surface touched again within this share of `dt` of the segment start where it was last
@@ -124,14 +124,14 @@ class Surfaces(AbstractModes):
             start += size
         return derivative
 
-    def forces(self, t, y: State, u: Input, resting: Bool[Array, " k"], mass=None) -> Float[Array, " k"]:
-        """The resting surfaces' contact forces (0 for the others); `mass`: `M(q)` if the caller has it."""
+    def forces(self, t, y: State, u: Input, resting: Bool[Array, " k"]) -> Float[Array, " k"]:
+        """The resting surfaces' contact forces (0 for the others)."""
         return jax.lax.cond(
-            eqxi.unvmap_any(jnp.any(resting)), lambda t, y, u, r: self._forces(t, y, u, r, mass),
+            eqxi.unvmap_any(jnp.any(resting)), lambda t, y, u, r: self._forces(t, y, u, r),
             lambda t, y, u, r: jnp.zeros_like(r, dtype=y.dtype), t, y, u, resting,
         )
 
-    def _forces(self, t, y: State, u: Input, resting: Bool[Array, " k"], mass=None) -> Float[Array, " k"]:
+    def _forces(self, t, y: State, u: Input, resting: Bool[Array, " k"]) -> Float[Array, " k"]:
         derivative = self.physics.vector_field(self.t0 + t, y, u)
         forces, start = [], 0
         for contact, size in zip(self.contacts, self.sizes(y)):
@@ -139,7 +139,7 @@ class Surfaces(AbstractModes):
                 # Read here, not before the loop: a scene's own contact (a rimless wheel's
                 # spokes) needs no generalised coordinates of its dynamics.
                 _, acceleration = self.mechanics.coordinates(derivative)
-                force, _ = contact.resting_force(self.dynamics, y, acceleration, resting[start : start + size], mass=mass)
+                force, _ = contact.resting_force(self.dynamics, y, acceleration, resting[start : start + size])
             else:
                 force = jnp.zeros((size,), y.dtype)
             forces.append(force)
@@ -205,10 +205,6 @@ class Surfaces(AbstractModes):
         offset = self.offset(y)
         start = 0
         sizes = self.sizes(y)
-        # The impacts and rests below change velocities only, so `M(q)` is the same for all of
-        # them and the forces after: computed once (a Hessian of the energy, each one compiled
-        # again in every gradient program).
-        mass = mass_matrix(self.dynamics, y) if self._mechanical else None
         touching_all, hits_all, candidates_all = [], [], []
         for contact, size in zip(self.contacts, sizes):
             for local in range(size):
@@ -216,11 +212,7 @@ class Surfaces(AbstractModes):
                 rate = jax.jvp(lambda z: contact.gaps(self.dynamics, z)[local], (y,), (self.physics.vector_field(self.t0 + t, y, u),))[1]
                 touching = gap <= 2 * offset
                 hit = touching & (rate < 0) & ~again[start + local]
-                if isinstance(contact, AbstractImpulseContact):
-                    struck = contact.impact(self.dynamics, y, local, mass=mass)
-                else:
-                    struck = contact.impact(self.dynamics, y, local)
-                y = jnp.where(hit, struck, y)
+                y = jnp.where(hit, contact.impact(self.dynamics, y, local), y)
                 touching_all.append(touching)
                 hits_all.append(hit)
             start += size
@@ -236,12 +228,12 @@ class Surfaces(AbstractModes):
                         (jnp.abs(speeds[local]) < contact.min_rebound_speed) | again[start + local]
                     )
                     candidates_all.append(slow)
-                    y = jnp.where(slow, contact.set_normal_speed(self.dynamics, y, local, 0.0, mass=mass), y)
+                    y = jnp.where(slow, contact.set_normal_speed(self.dynamics, y, local, 0.0), y)
             else:
                 candidates_all.extend([jnp.asarray(False)] * size)
             start += size
         candidates = jnp.stack(candidates_all)
-        resting = candidates & (self.forces(t, y, u, candidates, mass) > 0)
+        resting = candidates & (self.forces(t, y, u, candidates) > 0)
         # Re-place impulse contacts' touching surfaces just off them (a Newton step on the
         # positions along the gap's gradient: exact for flat surfaces).
         start = 0

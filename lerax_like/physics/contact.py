@@ -94,17 +94,16 @@ class AbstractImpulseContact(AbstractContact):
     def check(self, dynamics: AbstractDynamics) -> None:
         require_attributes(self, dynamics, ("coordinates", "energy"), "generalised coordinates and energy, for the mass matrix")
 
-    def impact(self, dynamics: AbstractDynamics, y: State, surface: int, *, mass: Array | None = None) -> State:
+    def impact(self, dynamics: AbstractDynamics, y: State, surface: int) -> State:
         """Reverse the normal velocity on `surface` times `restitution`, impulse-consistently.
 
         A rebound slower than `min_rebound_speed` is made zero (a plastic impact): the
-        contact then rests (see `resting_force`). `mass`: `mass_matrix(dynamics, y)` if
-        the caller has it (see `set_normal_speed`).
+        contact then rests (see `resting_force`).
         """
         normal_speed = self.normal_speeds(dynamics, y)[surface]
         rebound = -self.restitution * normal_speed
         rebound = jnp.where(jnp.abs(rebound) < self.min_rebound_speed, jnp.zeros_like(rebound), rebound)
-        return self.set_normal_speed(dynamics, y, surface, rebound, mass=mass)
+        return self.set_normal_speed(dynamics, y, surface, rebound)
 
     # -- mechanics read off the dynamics --------------------------------------------------
 
@@ -118,37 +117,29 @@ class AbstractImpulseContact(AbstractContact):
         _, q_dot = dynamics.coordinates(y)
         return self.jacobian(dynamics, y) @ q_dot
 
-    def set_normal_speed(
-        self, dynamics, y: State, surface: int, speed: ScalarLike, *, mass: Array | None = None
-    ) -> State:
-        """`y` with `J_i q_dot` set to `speed` by an impulse along `J_i^T`: `M dq_dot = J_i^T lambda`.
-
-        `mass`: `M(q)` if the caller has it (`mass_matrix(dynamics, y)`, computed when None).
-        It depends on the positions only, so one settle of several impacts and rests at the
-        same `q` computes it once: each computation is a Hessian, which a gradient program
-        differentiates again, and a program through located contacts compiled them by the dozen.
-        """
+    def set_normal_speed(self, dynamics, y: State, surface: int, speed: ScalarLike) -> State:
+        """`y` with `J_i q_dot` set to `speed` by an impulse along `J_i^T`: `M dq_dot = J_i^T lambda`."""
         _, q_dot = dynamics.coordinates(y)
         row = self.jacobian(dynamics, y)[surface]
-        direction = jnp.linalg.solve(mass_matrix(dynamics, y) if mass is None else mass, row)  # M^-1 J^T
+        direction = jnp.linalg.solve(mass_matrix(dynamics, y), row)  # M^-1 J^T
         impulse = (speed - row @ q_dot) / (row @ direction)
         return with_coordinates(dynamics, y, velocities=q_dot + impulse * direction)
 
     def resting_force(
-        self, dynamics, y: State, acceleration: Float[Array, " q"], resting: Bool[Array, " k"], *, mass: Array | None = None
+        self, dynamics, y: State, acceleration: Float[Array, " q"], resting: Bool[Array, " k"]
     ) -> tuple[Float[Array, " k"], Float[Array, " q"]]:
         """The contact forces `lambda` that hold the `resting` surfaces (others: 0), and `M^-1 J^T lambda`.
 
         With `acceleration` the free `q''`, they make `d2g_i/dt2 = J_i q'' + q_dot^T H_i q_dot`
         zero for every resting surface `i` (`H_i` the Hessian of `g_i`): a surface
-        pushes (`lambda_i > 0`) for as long as it holds. `mass`: as in `set_normal_speed`.
+        pushes (`lambda_i > 0`) for as long as it holds.
         """
         q, q_dot = dynamics.coordinates(y)
         jacobian = self.jacobian(dynamics, y)
         gaps_of = lambda p: self.gaps(dynamics, with_coordinates(dynamics, y, positions=p))
         curvature = jax.jvp(lambda p: jax.jacfwd(gaps_of)(p) @ q_dot, (q,), (q_dot,))[1]
         masked = jnp.where(resting[:, None], jacobian, 0.0)
-        inverse_mass_jacobian = jnp.linalg.solve(mass_matrix(dynamics, y) if mass is None else mass, masked.T)  # (q, k)
+        inverse_mass_jacobian = jnp.linalg.solve(mass_matrix(dynamics, y), masked.T)  # (q, k)
         # Free surfaces get a unit diagonal, so that the system stays regular and their force is 0.
         delassus = masked @ inverse_mass_jacobian + jnp.diag(jnp.where(resting, 0.0, 1.0).astype(y.dtype))
         force = jnp.linalg.solve(delassus, -jnp.where(resting, jacobian @ acceleration + curvature, 0.0))
