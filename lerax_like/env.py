@@ -37,27 +37,23 @@ from .stick_slip import FrictionModes
 
 
 def _step_info_shapes(env: "AbstractEnv", state: "EnvState", action) -> dict[str, jax.ShapeDtypeStruct]:
-    """The shapes and dtypes of a step's info: the step is traced, never run, and once per
-    structure of env, state and action (a hybrid scene's step takes 0.3 to 0.6 s to trace,
-    every eager `reset` paid it again)."""
+    """The shapes and dtypes of a step's info, traced once per structure of env, state and
+    action (a hybrid scene's step takes 0.3 to 0.6 s to trace: every eager `reset` paid it)."""
     dynamic, static = eqx.partition((env, state, action), lambda x: eqx.is_array(x) or isinstance(x, jax.ShapeDtypeStruct))
     leaves, treedef = jax.tree.flatten(dynamic)
-    structs = tuple(
-        x if isinstance(x, jax.ShapeDtypeStruct) else jax.ShapeDtypeStruct(x.shape, x.dtype, weak_type=jax.typeof(x).weak_type)
-        for x in leaves
-    )
+    weak = lambda x: x.weak_type if isinstance(x, jax.ShapeDtypeStruct) else jax.typeof(x).weak_type
+    structs = tuple(jax.ShapeDtypeStruct(x.shape, x.dtype, weak_type=weak(x)) for x in leaves)
+    # (The float dtype in the key: under `jax.enable_x64` the same env traces to float64.)
+    key = (static, treedef, structs, jnp.result_type(float))
     try:
-        hash(static)
+        hash(key)
     except TypeError:  # a static part of a user's own that cannot be hashed: traced every time
-        return _traced_info_shapes.__wrapped__(static, treedef, structs, jnp.result_type(float))
-    return _traced_info_shapes(static, treedef, structs, jnp.result_type(float))
+        return _traced_info_shapes.__wrapped__(*key)
+    return _traced_info_shapes(*key)
 
 
-# (`jnp.result_type(float)` in the key: under `jax.enable_x64` the same env traces to float64.)
 @functools.lru_cache(maxsize=256)
 def _traced_info_shapes(static, treedef, structs, float_dtype) -> dict[str, jax.ShapeDtypeStruct]:
-    del float_dtype
-
     def info(*leaves):
         env, state, action = eqx.combine(jax.tree.unflatten(treedef, leaves), static)
         return env.advance(state, action, key=jr.key(0))[-1]

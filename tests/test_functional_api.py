@@ -56,6 +56,20 @@ def test_reset_info_has_step_info_structure_every_scene_and_preset(name, solver,
     _assert_same_info_structure(env, getkey())
 
 
+def test_reset_info_follows_each_env_s_structure_and_float_mode(getkey):
+    """`reset` traces a step's info once per structure of env (lerax_like.env._step_info_shapes):
+    envs alike but for their contacts, or made in another float mode, each get their own."""
+    plain = ll.make("CartPoleContinuous")
+    walled = ll.make("CartPoleContinuous", restitution=0.8, track_limit=0.06)
+    for env, has_impacts in ((plain, False), (walled, True), (plain, False)):
+        _assert_same_info_structure(env, getkey())
+        assert ("impacts" in env.reset(key=getkey())[2]) == has_impacts
+    with jax.enable_x64(False):
+        _, _, info = ll.make("CartPoleContinuous", restitution=0.8, track_limit=0.06).reset(key=jr.key(0))
+    assert info["first_impact_time"].dtype == jnp.float32 and info["impacts"].dtype == jnp.int32
+    assert walled.reset(key=getkey())[2]["first_impact_time"].dtype == jnp.float64
+
+
 def test_reset_info_says_nothing_failed(getkey):
     """A reset integrated nothing: its flags are True, its counts zero, its final observation the start's."""
     env = ll.make("CartPole", solver="tsit5")
