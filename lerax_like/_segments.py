@@ -288,36 +288,44 @@ def integrate_hybrid(
     )
     no_event = jnp.zeros(jax.eval_shape(lambda y: modes.guards(0.0, y, (u, modes.initial_mode(y))), y0).shape, bool)
 
-    def segment(carry):
+    def segment(carry, last):
         y, t, mode, fired, ok, checks, steps, rejected, counts, firsts = carry
         done = t >= dt
+        # A segment starts by settling: the reset of the guard that fired, or the mode read off
+        # the state. An event located at the very end of the step (or at the end of the last
+        # segment) is settled too, by the next iteration, whose solve is then dropped: one
+        # settle in the program, not a second one after the loop.
+        settling = (~done & ~last) | jnp.any(fired)
         settled = modes.settle(t, y, u, mode, fired)
-        y = jnp.where(done, y, settled.y)
-        mode = jax.tree.map(lambda new, old: jnp.where(done, old, new), settled.mode, mode)
-        events = tuple(jnp.where(done, 0, count) for count in settled.events)
-        end = solve(y, t, (u, mode))
-        event = (end.result == diffrax.RESULTS.event_occurred) & ~done
+        y = jnp.where(settling, settled.y, y)
+        mode = jax.tree.map(lambda new, old: jnp.where(settling, new, old), settled.mode, mode)
+        events = tuple(jnp.where(settling, count, 0) for count in settled.events)
+        idle = done | last
+        end = solve(y, jnp.where(idle, dt, t), (u, mode))
+        event = (end.result == diffrax.RESULTS.event_occurred) & ~idle
         fired = event & (jnp.arange(no_event.shape[0]) == jnp.argmin(modes.guards(end.t, end.y, (u, mode))))
         return (
             end.y,
-            end.t,
+            jnp.where(idle, t, end.t),
             mode,
             fired,
-            ok & (done | end.solved),
-            {name: checks[name] & (done | passed) for name, passed in settled.checks.items()},
+            ok & (idle | end.solved),
+            # (The checks of a segment's start: a settle at the end applies its reset only.)
+            {name: checks[name] & (idle | passed) for name, passed in settled.checks.items()},
             steps + end.accepted,
             rejected + end.tried - end.accepted,
             tuple(count + new for count, new in zip(counts, events)),
             tuple(jnp.where((new > 0) & (first == jnp.inf), t, first) for first, new in zip(firsts, events)),
         )
 
-    def skip_done(carry, _):
+    def skip_done(carry, last):
         # The segments after every env's last one are skipped whole (`unvmap_any`: over a batch).
-        return jax.lax.cond(eqxi.unvmap_any(carry[1] < dt), checkpointed, lambda carry: carry, carry), None
+        pending = eqxi.unvmap_any((carry[1] < dt) | jnp.any(carry[3]))
+        return jax.lax.cond(pending, checkpointed, lambda carry, last: carry, carry, last), None
 
     # Reverse mode keeps each segment's start only and recomputes the segment on the way back:
     # otherwise it stores the internals (solver checkpoints, event search) of all
-    # `max_events + 1` segments, used or not. Values and gradients are unchanged.
+    # `max_events + 2` segments, used or not. Values and gradients are unchanged.
     checkpointed = jax.checkpoint(segment, prevent_cse=False)
     zero, never = jnp.zeros((), int), jnp.asarray(jnp.inf, y0.dtype)
     mode = modes.initial_mode(y0)
@@ -327,21 +335,10 @@ def integrate_hybrid(
         y0, jnp.zeros((), y0.dtype), mode, no_event, jnp.asarray(True), checks, zero, zero,
         tuple(zero for _ in kinds), tuple(never for _ in kinds),
     )
-    final, _ = jax.lax.scan(skip_done, initial, None, length=modes.max_events + 1)
+    # `max_events + 1` segments, and one more that only settles an event that ended the last.
+    lasts = jnp.arange(modes.max_events + 2) == modes.max_events + 1
+    final, _ = jax.lax.scan(skip_done, initial, lasts)
     y, t, mode, fired, ok, checks, steps, rejected, counts, firsts = final
-    # An event located at the step's very end is settled here.
-    ended = jnp.any(fired)
-    nothing = (y, tuple(zero for _ in kinds))
-
-    def settle_last():
-        settled = modes.settle(t, y, u, mode, fired)
-        return settled.y, settled.events
-
-    last = jax.lax.cond(eqxi.unvmap_any(ended), settle_last, lambda: nothing)
-    y = jnp.where(ended, last[0], y)
-    events = tuple(jnp.where(ended, new, 0) for new in last[1])
-    counts = tuple(count + new for count, new in zip(counts, events))
-    firsts = tuple(jnp.where((new > 0) & (first == jnp.inf), t, first) for first, new in zip(firsts, events))
     finite = jnp.all(jnp.isfinite(y))
     if projection is not None:
         y = projection(y)
