@@ -9,6 +9,7 @@ import pytest
 import lerax_like as ll
 
 
+@pytest.mark.slow  # 2.9 s of one worker at 4ff5f8c (docs/testing.md): CI's, not the quick loop's
 def test_batch_of_256_pole_masses_equals_single_steps():
     masses = jnp.linspace(0.05, 3.0, 256)
     envs = eqx.filter_vmap(lambda m: ll.make("CartPole", pole_mass=m))(masses)

@@ -121,6 +121,7 @@ def test_cart_chain_matches_sympy_lagrangian(n_links):
         assert relative_error(ours, expected) < 1e-10
 
 
+@pytest.mark.slow  # 2.8 s of one worker at 4ff5f8c (docs/testing.md): CI's, not the quick loop's
 def test_scene_vector_fields_match_sympy(getkey):
     """The scenes' own `env.dynamics.vector_field` at their random start states and actions."""
     double = ll.make("DoubleCartPole", cart_mass=1.3, pole_masses=(0.3, 0.2), pole_lengths=(0.8, 1.1), gravity=9.8)

@@ -75,6 +75,7 @@ def test_construction_under_filter_vmap_with_traced_parameters():
     np.testing.assert_array_equal(np.asarray(envs.dynamics.pole_mass), np.asarray(masses))
 
 
+@pytest.mark.slow  # 2.7 s of one worker at 4ff5f8c (docs/testing.md): CI's, not the quick loop's
 def test_spaces_sample_what_they_contain(getkey):
     env = ll.CartPole()
     assert bool(env.action_space.contains(env.action_space.sample(key=getkey())))

@@ -253,6 +253,7 @@ def test_semi_implicit_euler_pushed_into_a_wall_comes_to_rest_without_failing(sc
 
 
 
+@pytest.mark.slow  # 2.1 to 7.1 s of one worker at 4ff5f8c (docs/testing.md): CI's, not the quick loop's
 @pytest.mark.parametrize(
     ("dynamics", "size"),
     [

@@ -166,6 +166,7 @@ def test_every_page_with_code_is_run_and_in_the_nav():
             assert len(reason.split()) >= 3, f"{page.name}: a block not run says why in words: {reason!r}"
 
 
+@pytest.mark.slow  # 2.7 s of one worker at 4ff5f8c (docs/testing.md): CI's, not the quick loop's
 def test_the_readme_is_a_door():
     # Diffrax's README is 82 lines and Gymnasium's 87; results, tables and limits live in docs/.
     lines = len((ROOT / "README.md").read_text().splitlines())

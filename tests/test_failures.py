@@ -78,6 +78,7 @@ class _NaNWindow(ll.AbstractDynamics):
         return jnp.where(inside, jnp.nan, -y)
 
 
+@pytest.mark.slow  # 2.6 s of one worker at 4ff5f8c (docs/testing.md): CI's, not the quick loop's
 def test_nan_mid_trajectory_under_constant_step_size_is_caught():
     # diffrax's ConstantStepSize never looks at the state. A NaN met at an inner step is
     # still in the end state: a Runge-Kutta step is y + h * sum(b_i k_i) and NaN (or
@@ -93,6 +94,7 @@ def test_nan_mid_trajectory_under_constant_step_size_is_caught():
     assert bool(info["solver_ok"])
 
 
+@pytest.mark.slow  # 2.6 s of one worker at 4ff5f8c (docs/testing.md): CI's, not the quick loop's
 def test_budget_exhaustion_under_vmap_is_reported_per_env():
     # Parameters traced under vmap: one compile for both envs; the stiff one fails.
     make = lambda mu: ll.make("VanDerPol", mu=mu, dt=1.0, solver=ll.make_integrator("tsit5", max_steps=256))

@@ -26,6 +26,7 @@ from lerax_like.integrate import make_integrator
 from lerax_like.stick_slip import NORMAL_FLIPS
 
 
+@pytest.mark.slow  # 3.7 s of one worker at 4ff5f8c (docs/testing.md): CI's, not the quick loop's
 def test_the_hermite_dip_is_the_lowest_point_of_the_cubic():
     rng = np.random.default_rng(0)
     g0, g1 = rng.uniform(0, 1, (2, 400))

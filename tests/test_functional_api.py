@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import lerax_like as ll
+from conftest import quick_unless_hybrid
 
 
 def _structure(tree):
@@ -33,7 +34,8 @@ def _assert_same_info_structure(env, key):
     assert _structure(reset_info) == _structure(step_info)
 
 
-@pytest.mark.parametrize("name", list(ll.SCENES))
+# Hybrid scenes' cases are CI's (BouncingBall's 3.2 s of one worker at 4ff5f8c, docs/testing.md).
+@pytest.mark.parametrize("name", [quick_unless_hybrid(name) for name in ll.SCENES])
 def test_reset_info_has_step_info_structure_every_scene(name, getkey):
     _assert_same_info_structure(ll.SCENES[name](), getkey())
 
@@ -56,6 +58,7 @@ def test_reset_info_has_step_info_structure_every_scene_and_preset(name, solver,
     _assert_same_info_structure(env, getkey())
 
 
+@pytest.mark.slow  # 2.5 s of one worker at 4ff5f8c (docs/testing.md): CI's, not the quick loop's
 def test_reset_info_follows_each_env_s_structure_and_float_mode(getkey):
     """`reset` traces a step's info once per structure of env (lerax_like.env._step_info_shapes):
     envs alike but for their contacts, or made in another float mode, each get their own."""

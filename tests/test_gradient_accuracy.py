@@ -23,6 +23,7 @@ def _sensitivities(integrator, steps=100):
     return np.asarray(trajectory_sensitivity(env, lambda e: e.dynamics.half_length, y0, actions)[:, 2])
 
 
+@pytest.mark.slow  # 2.9 s of one worker at 4ff5f8c (docs/testing.md): CI's, not the quick loop's
 def test_euler_gradient_is_first_order_and_can_have_the_wrong_sign():
     reference = _sensitivities(ll.make_integrator("rk4", substeps=8))  # ~1e-9 from Dopri8 at rtol 1e-12
     euler = _sensitivities(ll.make_integrator("euler"))

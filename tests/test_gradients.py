@@ -295,6 +295,7 @@ def test_forward_mode_passes_one_constant_step_as_docs_gradients_says(solver):
     np.testing.assert_allclose(jax.jacfwd(end_state)(mass), central, rtol=1e-6, atol=1e-9)
 
 
+@pytest.mark.slow  # 2.7 s of one worker at 4ff5f8c (docs/testing.md): CI's, not the quick loop's
 def test_forward_mode_through_an_adaptive_solver_names_the_forward_adjoint():
     env = ll.make("CartPoleContinuous", solver="tsit5")
     state, _, _ = env.reset(key=jr.key(0))

@@ -181,6 +181,7 @@ def test_autoreset_mode_is_refused_by_name():
         gymnasium.make_vec("lerax_like/CartPole-v1", 2, vectorization_mode="vector_entry_point", autoreset_mode="later")
 
 
+@pytest.mark.slow  # 4.2 s of one worker at 4ff5f8c (docs/testing.md): CI's, not the quick loop's
 def test_reset_mask_is_checked_as_gymnasium_checks_it():
     ours = gymnasium.make_vec(
         "lerax_like/CartPole-v1", 2, vectorization_mode="vector_entry_point", autoreset_mode=AutoresetMode.DISABLED

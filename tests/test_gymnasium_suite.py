@@ -485,6 +485,7 @@ def test_set_gravity_then_one_step_as_gymnasium():
     assert not np.allclose(ours.unwrapped.state, earth.unwrapped.state, rtol=1e-6)
 
 
+@pytest.mark.slow  # 2.5 s of one worker at 4ff5f8c (docs/testing.md): CI's, not the quick loop's
 def test_vector_env_has_gymnasiums_attributes():
     vector = gymnasium.make_vec("lerax_like/CartPole-v1", 2, vectorization_mode="vector_entry_point")
     assert vector.unwrapped.masspole == pytest.approx(0.1)

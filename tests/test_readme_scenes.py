@@ -86,6 +86,7 @@ def test_each_gymnasium_id_stands_for_its_rows_scene():
             env.close()
 
 
+@pytest.mark.slow  # 3.0 s of one worker at 4ff5f8c (docs/testing.md): CI's, not the quick loop's
 def test_each_rows_dynamics_is_at_the_top_level():
     # The table shows `ll.<Dynamics>` beside `ll.<Scene>`: both must be there.
     for row in _table_rows():

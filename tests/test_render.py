@@ -148,6 +148,7 @@ def test_every_new_id_passes_gymnasiums_check_env(env_id):
     env.close()
 
 
+@pytest.mark.slow  # 2.5 s of one worker at 4ff5f8c (docs/testing.md): CI's, not the quick loop's
 def test_a_new_id_renders_in_every_mode_of_its_vector_env_and_in_human():
     pytest.importorskip("pygame")
     env_id = "lerax_like/VanDerPol-v0"

@@ -176,6 +176,7 @@ def test_the_scene_rolls_onto_the_closed_form_limit_cycle():
         assert abs(speed - float(wheel.limit_cycle_speed)) < 1e-9
 
 
+@pytest.mark.slow  # 3.4 s of one worker at 4ff5f8c (docs/testing.md): CI's, not the quick loop's
 def test_hybrid_reference_trajectories_of_a_dropped_ball_match_the_closed_form():
     # The study's event-restarted SciPy reference, on an env's own contacts: a ball dropped
     # from rest at height h lands at t* = sqrt(2 h / g) and leaves at e g t*.

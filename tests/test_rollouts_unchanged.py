@@ -92,6 +92,7 @@ def test_a_rollout_is_bit_for_bit_as_recorded_before_the_change(configuration, r
         np.testing.assert_array_equal(value, before, err_msg=f"{configuration}: {name}")
 
 
+@pytest.mark.slow  # 3.5 s of one worker at 4ff5f8c (docs/testing.md): CI's, not the quick loop's
 def test_every_package_scene_has_a_recorded_default_rollout(recorded):
     """A scene added after the record has none to compare with; this names the record's scenes."""
     names = {key.split("/")[0] for key in recorded}

@@ -89,6 +89,7 @@ def test_same_step_autoreset_matches_dummy_vec_env_on_gymnasium_cartpole(hand_ou
     assert counts["terminated"] > 10 and counts["truncated"] > 10, counts  # both ends, and their restarts
 
 
+@pytest.mark.slow  # 3.0 s of one worker at 4ff5f8c (docs/testing.md): CI's, not the quick loop's
 def test_a_stochastic_scene_restarts_in_the_step_as_in_a_second_call(noisy_cartpole):
     # The restart in the step (starts drawn ahead) against the restart in a call of its
     # own (generators handed out): the same starts, and the same keys for the noise.

@@ -336,6 +336,7 @@ def test_sync_vector_env_of_our_envs_collects_each_envs_frames():
         ours.close(), reference.close()
 
 
+@pytest.mark.slow  # 3.3 s of one worker at 4ff5f8c (docs/testing.md): CI's, not the quick loop's
 def test_per_env_parameters_in_float32_and_through_pickle():
     import pickle
 

@@ -228,6 +228,7 @@ def test_bad_solver_names_are_usage_errors(command, capsys):
         assert words in capsys.readouterr().err, spec
 
 
+@pytest.mark.slow  # 3.7 s of one worker at 4ff5f8c (docs/testing.md): CI's, not the quick loop's
 def test_solvers_are_swept_by_what_they_offer():
     from lerax_like.analysis import sweeps_for
 
