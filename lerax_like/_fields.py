@@ -104,6 +104,12 @@ def option(default: Any, choices: tuple | None = None, *, static: bool = True) -
     return eqx.field(default=default, static=static, metadata={"choices": choices})
 
 
+def in_precision_of(y, x):
+    """`x` with its float leaves in `y`'s dtype: an env computes in its own precision, whatever
+    the float mode an action or input was made in (float64 for an env built in float32)."""
+    return jax.tree.map(lambda v: jnp.asarray(v, y.dtype) if jnp.issubdtype(jnp.result_type(v), jnp.floating) else v, x)
+
+
 def check_shape(value, shape: tuple[str | int, ...] | None, name: str, sizes: dict[str, tuple[int, str]]) -> None:
     """Refuse `value` unless its shape is `shape`.
 

@@ -23,7 +23,7 @@ import jax.numpy as jnp
 import jax.random as jr
 
 from ._episode import episode_limit, episode_time
-from ._fields import AbstractParametrised, concrete
+from ._fields import AbstractParametrised, concrete, in_precision_of
 from ._random import uniform
 from ._segments import AbstractModes, integrate_hybrid
 from ._types import Array, ArrayLike, BoolScalar, Float, Input, IntScalar, Key, Scalar, ScalarLike, State
@@ -277,7 +277,7 @@ class AbstractEnv(AbstractParametrised):
         nothing non-finite leaves the env. The studies call this directly, with inputs an
         action cannot express (a zero force on `CartPole`).
         """
-        physics = self.physics
+        physics, u = self.physics, in_precision_of(state.y, u)
         t0 = episode_time(state.steps, self.dt)
         projection = self.project if self.projects_state() else None
         modes = self.modes(t0)
@@ -342,7 +342,7 @@ class AbstractEnv(AbstractParametrised):
         """Whether the episode's time limit is reached."""
         if self.max_episode_steps is None:
             return jnp.asarray(False)
-        return state.steps >= self.max_episode_steps
+        return state.steps >= self.max_episode_steps.astype(state.steps.dtype)
 
     def reset(self, *, key: Key) -> tuple[EnvState, Array, dict[str, Array]]:
         """A fresh episode: state, observation, and an info with `step`'s keys and dtypes (so
@@ -414,7 +414,7 @@ class AbstractEnv(AbstractParametrised):
             space, shown = self.action_space, concrete(action)
             action_text = action if shown is None else shown.tolist()
             raise ValueError(f"action {action_text} is not admissible in {space}: it must be {space.rule}")
-        keys = step_keys(key, self.stochastic)
+        keys, action = step_keys(key, self.stochastic), in_precision_of(state.y, action)
         next_state, info = self.transition(state, action, key=keys.transition)
         observation = self.observation(next_state, key=keys.observation)
         reward = self.reward(state, action, next_state, key=keys.reward)

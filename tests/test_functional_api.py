@@ -73,6 +73,33 @@ def test_reset_info_follows_each_env_s_structure_and_float_mode(getkey):
     assert walled.reset(key=getkey())[2]["first_impact_time"].dtype == jnp.float64
 
 
+@pytest.mark.parametrize("name", [quick_unless_hybrid("CartPoleContinuous"), quick_unless_hybrid("BouncingBall")])
+def test_an_env_built_in_float32_steps_in_float32_whatever_the_action_s_float_mode(name):
+    """An env made under `jax.enable_x64(False)` and stepped in float64 mode, with a float64
+    action (what its action space samples there), computes in float32: bit for bit the
+    rollout of float32 mode. The action once promoted a smooth scene's state to float64 at
+    its first step, and failed to trace a hybrid scene's contact forces (a `cond` whose
+    branches were float32 and float64)."""
+
+    @eqx.filter_jit
+    def run(env, action):
+        state, _, _ = env.reset(key=jr.key(0))
+
+        def body(state, _):
+            state, observation, reward, _, _, info = env.step(state, action, key=jr.key(1))
+            return state, (observation, reward, info["solver_ok"])
+
+        return jax.lax.scan(body, state, None, length=30)[1]
+
+    with jax.enable_x64(False):
+        env = ll.make(name)
+        observations32, rewards32, _ = run(env, jnp.full(env.action_space.shape, 0.5))
+    observations, rewards, solver_ok = run(env, jnp.full(env.action_space.shape, 0.5, dtype=jnp.float64))
+    assert bool(jnp.all(solver_ok)) and observations.dtype == jnp.float32
+    np.testing.assert_array_equal(observations, observations32)
+    np.testing.assert_array_equal(rewards, rewards32)
+
+
 def test_reset_info_says_nothing_failed(getkey):
     """A reset integrated nothing: its flags are True, its counts zero, its final observation the start's."""
     env = ll.make("CartPole", solver="tsit5")
