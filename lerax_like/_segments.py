@@ -338,7 +338,7 @@ def integrate_hybrid(
     # `max_events + 1` segments, and one more that only settles an event that ended the last.
     lasts = jnp.arange(modes.max_events + 2) == modes.max_events + 1
     final, _ = jax.lax.scan(skip_done, initial, lasts)
-    y, t, mode, fired, ok, checks, steps, rejected, counts, firsts = final
+    y, t, _, _, ok, checks, steps, rejected, counts, firsts = final  # no segment follows to read the mode
     finite = jnp.all(jnp.isfinite(y))
     if projection is not None:
         y = projection(y)
