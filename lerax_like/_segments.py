@@ -225,7 +225,8 @@ class AbstractModes(eqx.Module):
         """The event's condition: the smallest guard, whose zero is the first of all of them; in the
         default float dtype, as diffrax 0.7.2's `cond` pairs it with `0.0` (float64 under x64)."""
         del kwargs
-        return jnp.min(self.guards(t, y, args)).astype(jnp.result_type(float))
+        guards = self.guards(t, y, args)
+        return guards[jnp.argmin(guards)].astype(jnp.result_type(float))
 
     def dip(self, t0, t1, y0: State, y1: State, args) -> ScalarLike:
         """The step fraction where a guard's Hermite interpolant dips below zero and back (1 if none).
