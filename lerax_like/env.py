@@ -342,7 +342,7 @@ class AbstractEnv(AbstractParametrised):
         """Whether the episode's time limit is reached."""
         if self.max_episode_steps is None:
             return jnp.asarray(False)
-        return state.steps >= self.max_episode_steps.astype(state.steps.dtype)
+        return state.steps >= jnp.asarray(self.max_episode_steps, state.steps.dtype)
 
     def reset(self, *, key: Key) -> tuple[EnvState, Array, dict[str, Array]]:
         """A fresh episode: state, observation, and an info with `step`'s keys and dtypes (so
