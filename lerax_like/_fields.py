@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import Any, TypeVar
 
 import equinox as eqx
 import jax
@@ -104,7 +104,10 @@ def option(default: Any, choices: tuple | None = None, *, static: bool = True) -
     return eqx.field(default=default, static=static, metadata={"choices": choices})
 
 
-def in_precision_of(y, x):
+_Tree = TypeVar("_Tree")
+
+
+def in_precision_of(y, x: _Tree) -> _Tree:
     """`x` with its float leaves in `y`'s dtype: an env computes in its own precision, whatever
     the float mode an action or input was made in (float64 for an env built in float32)."""
     return jax.tree.map(lambda v: jnp.asarray(v, y.dtype) if jnp.issubdtype(jnp.result_type(v), jnp.floating) else v, x)

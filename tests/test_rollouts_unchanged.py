@@ -72,8 +72,8 @@ def rollout_of(scene: str, keywords: dict) -> dict[str, np.ndarray]:
         ys, info = ll.rollout(env, state, actions)
         return {"y0": state.y, "ys": ys, "reward": info["reward"], "solver_ok": info["solver_ok"]}
 
-    # Compiled with XLA's defaults, whose bits the record holds (the suite compiles with less
-    # optimisation, conftest.py), as a user's `eqx.filter_jit` would: the same jaxpr (test_jit_env).
+    # Compiled with XLA's defaults, whose bits the record holds (the suite compiles with older
+    # fusion emitters, conftest.py), as a user's `eqx.filter_jit` would: the same jaxpr (test_jit_env).
     dynamic, static = eqx.partition(env, eqx.is_array)
     compiled = jax.jit(lambda dynamic, key: run(eqx.combine(dynamic, static), key), compiler_options=XLA_DEFAULTS)
     return {name: np.asarray(value) for name, value in compiled(dynamic, jax.random.key(0)).items()}
