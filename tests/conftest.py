@@ -24,23 +24,6 @@ import lerax_like
 jax.config.update("jax_enable_x64", True)
 jax.config.update("jax_numpy_dtype_promotion", "strict")
 
-# XLA compiles the suite's programs with its older CPU fusion emitters; the programs users run
-# compile with XLA's defaults (`XLA_DEFAULTS`). Compiling is most of the suite's time, and this
-# cuts it by a third (docs/testing.md). The claims checked are the same; the machine code, and
-# so the rounding, may differ, and every check has a tolerance above rounding but
-# `test_rollouts_unchanged`, whose recorded bits are those of XLA's defaults and which compiles
-# with them. (LLVM's optimisation level 0 on top saved more, and found 2298295, but changed
-# float32's measured digit loss and checkpointed recomputation's bits: docs/testing.md.) Set
-# here, before JAX starts its CPU client (collection does), so that the xdist workers and the
-# processes tests start (the command line, the notebooks) inherit it; a user's own XLA_FLAGS
-# come after, and win. LERAX_LIKE_TEST_XLA=default runs the suite with XLA's defaults.
-SUITE_XLA_FLAGS = ("--xla_cpu_use_fusion_emitters=false",)
-XLA_DEFAULTS = {"xla_cpu_use_fusion_emitters": True}
-_XLA_FLAGS_BEFORE = os.environ.get("XLA_FLAGS")
-if os.environ.get("LERAX_LIKE_TEST_XLA") != "default":
-    _own = (_XLA_FLAGS_BEFORE or "").split()
-    os.environ["XLA_FLAGS"] = " ".join([flag for flag in SUITE_XLA_FLAGS if flag not in _own] + _own)
-
 # Scenes that tests define, as a contributor would (`tests/<name>/scene.py`, which calls
 # `lerax_like.register_scene`): imported here, before collection, so that every test
 # parametrised over `lerax_like.SCENES` covers them with no line changed elsewhere.
@@ -157,7 +140,7 @@ def quick_unless_hybrid(name: str, *values, id: str | None = None):
     return pytest.param(name, *values, marks=[pytest.mark.slow] if hybrid(name) else [], id=id)
 
 
-__all__ = ["STATE_RTOL", "XLA_DEFAULTS", "hybrid", "jnp", "quick_unless_hybrid", "relative_error", "tree_allclose", "unforced_run_against"]
+__all__ = ["STATE_RTOL", "hybrid", "jnp", "quick_unless_hybrid", "relative_error", "tree_allclose", "unforced_run_against"]
 
 
 # JAX's persistent compilation cache, shared by every process of one run. Most of the suite's
@@ -232,10 +215,6 @@ def pytest_configure_node(node):
 
 
 def pytest_unconfigure(config):
-    if _XLA_FLAGS_BEFORE is None:
-        os.environ.pop("XLA_FLAGS", None)
-    else:
-        os.environ["XLA_FLAGS"] = _XLA_FLAGS_BEFORE
     if _RUN_ENVIRONMENT not in config.stash:
         return
     folder, replaced = config.stash[_RUN_ENVIRONMENT]

@@ -21,7 +21,6 @@ import numpy as np
 import pytest
 
 import lerax_like as ll
-from conftest import XLA_DEFAULTS
 
 
 RECORD = pathlib.Path(__file__).parent / "data" / "rollouts_before_constructors.npz"
@@ -65,6 +64,7 @@ def build(scene: str, keywords: dict):
 def rollout_of(scene: str, keywords: dict) -> dict[str, np.ndarray]:
     env = build(scene, keywords)
 
+    @eqx.filter_jit
     def run(env, key):
         start_key, action_key = jax.random.split(key)
         state, _, _ = env.reset(key=start_key)
@@ -72,11 +72,7 @@ def rollout_of(scene: str, keywords: dict) -> dict[str, np.ndarray]:
         ys, info = ll.rollout(env, state, actions)
         return {"y0": state.y, "ys": ys, "reward": info["reward"], "solver_ok": info["solver_ok"]}
 
-    # Compiled with XLA's defaults, whose bits the record holds (the suite compiles with older
-    # fusion emitters, conftest.py), as a user's `eqx.filter_jit` would: the same jaxpr (test_jit_env).
-    dynamic, static = eqx.partition(env, eqx.is_array)
-    compiled = jax.jit(lambda dynamic, key: run(eqx.combine(dynamic, static), key), compiler_options=XLA_DEFAULTS)
-    return {name: np.asarray(value) for name, value in compiled(dynamic, jax.random.key(0)).items()}
+    return {name: np.asarray(value) for name, value in run(env, jax.random.key(0)).items()}
 
 
 @pytest.fixture(scope="module")
