@@ -7,6 +7,8 @@ import os
 import pathlib
 import re
 import shutil
+import subprocess
+import sys
 import tempfile
 import tomllib
 from typing import NamedTuple
@@ -23,6 +25,25 @@ import lerax_like
 
 jax.config.update("jax_enable_x64", True)
 jax.config.update("jax_numpy_dtype_promotion", "strict")
+
+# XLA compiles the suite's programs with LLVM's optimisation level 0 and its older CPU fusion
+# emitters, where the programs users run compile with XLA's defaults. Compiling is most of the
+# suite's time, and this cuts it by about a third (docs/testing.md). The program JAX hands XLA
+# is the same; its machine code differs, and so the rounding: every check has a tolerance
+# above rounding but those that measure rounding or depend on its bits, which compile with
+# XLA's defaults: `test_rollouts_unchanged` (`XLA_DEFAULTS`, per program)
+# and the tests marked `xla_defaults` (each in a process of its own, `pytest_pyfunc_call`
+# below). A second rounding also finds code that relies on bits being the same in two places
+# (2298295). Set here, before JAX starts its CPU client, so that the xdist workers and the
+# processes tests start (the command line, the notebooks) inherit it; a user's own XLA_FLAGS
+# come after, and win. LERAX_LIKE_TEST_XLA=default runs the whole suite with XLA's defaults.
+SUITE_XLA_FLAGS = ("--xla_backend_optimization_level=0", "--xla_cpu_use_fusion_emitters=false")
+XLA_DEFAULTS = {"xla_backend_optimization_level": 3, "xla_cpu_use_fusion_emitters": True}
+TEST_XLA = "LERAX_LIKE_TEST_XLA"
+_XLA_FLAGS_BEFORE = os.environ.get("XLA_FLAGS")
+if os.environ.get(TEST_XLA) != "default":
+    _own = (_XLA_FLAGS_BEFORE or "").split()
+    os.environ["XLA_FLAGS"] = " ".join([flag for flag in SUITE_XLA_FLAGS if flag not in _own] + _own)
 
 # Scenes that tests define, as a contributor would (`tests/<name>/scene.py`, which calls
 # `lerax_like.register_scene`): imported here, before collection, so that every test
@@ -140,7 +161,7 @@ def quick_unless_hybrid(name: str, *values, id: str | None = None):
     return pytest.param(name, *values, marks=[pytest.mark.slow] if hybrid(name) else [], id=id)
 
 
-__all__ = ["STATE_RTOL", "hybrid", "jnp", "quick_unless_hybrid", "relative_error", "tree_allclose", "unforced_run_against"]
+__all__ = ["STATE_RTOL", "XLA_DEFAULTS", "hybrid", "jnp", "quick_unless_hybrid", "relative_error", "tree_allclose", "unforced_run_against"]
 
 
 # JAX's persistent compilation cache, shared by every process of one run. Most of the suite's
@@ -215,6 +236,10 @@ def pytest_configure_node(node):
 
 
 def pytest_unconfigure(config):
+    if _XLA_FLAGS_BEFORE is None:
+        os.environ.pop("XLA_FLAGS", None)
+    else:
+        os.environ["XLA_FLAGS"] = _XLA_FLAGS_BEFORE
     if _RUN_ENVIRONMENT not in config.stash:
         return
     folder, replaced = config.stash[_RUN_ENVIRONMENT]
@@ -224,6 +249,30 @@ def pytest_unconfigure(config):
         else:
             os.environ[name] = value
     shutil.rmtree(folder, ignore_errors=True)
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_pyfunc_call(pyfuncitem):
+    """A test marked `xla_defaults` runs in a process of its own whose programs, the package's
+    own `jax.jit`s included, compile with XLA's defaults (the suite's do not: `SUITE_XLA_FLAGS`).
+    It passes only if that process ran it and it passed there."""
+    if pyfuncitem.get_closest_marker("xla_defaults") is None or os.environ.get(TEST_XLA) == "default":
+        return None
+    # (An xdist worker inherits the suite's flags from the process that started the run.)
+    own = [flag for flag in os.environ.get("XLA_FLAGS", "").split() if flag not in SUITE_XLA_FLAGS]
+    environment = {**os.environ, TEST_XLA: "default", "XLA_FLAGS": " ".join(own)}
+    command = [sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "-o", "addopts=", "-q", "-rs", pyfuncitem.nodeid]
+    run = subprocess.run(command, cwd=pyfuncitem.config.rootpath, env=environment, capture_output=True, text=True)
+    summary = run.stdout.strip().splitlines()[-1] if run.stdout.strip() else ""
+    if run.returncode == 0 and re.fullmatch(r"=* ?1 skipped in .*", summary):
+        pytest.skip(f"skipped with XLA's defaults, in its own process:\n{run.stdout[-2000:]}")
+    if run.returncode != 0 or not re.fullmatch(r"=* ?1 passed(, \d+ warnings?)? in .*", summary):
+        pytest.fail(
+            f"with XLA's defaults, in its own process ({' '.join(command)}), exit status {run.returncode}:\n"
+            f"{run.stdout[-8000:]}\n{run.stderr[-4000:]}",
+            pytrace=False,
+        )
+    return True
 
 
 def pytest_collection_modifyitems(config, items):

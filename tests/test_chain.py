@@ -282,6 +282,10 @@ def test_three_link_lengths_recovered_within_one_percent(getkey):
 
 
 @pytest.mark.slow
+# The notebook's run, which depends on rounding: with the true model, iLQR-MPC swings up from
+# 6 of 8 starts compiled with XLA's defaults and 4 of 8 with the suite's flags, and from this
+# run's second start only with the defaults (docs/testing.md).
+@pytest.mark.xla_defaults
 def test_adaptive_mpc_swings_up_double_cartpole():
     """Experiment 2 (IDS): iLQR-MPC through a model 20% off fails, refits, then swings up.
 

@@ -21,6 +21,7 @@ import numpy as np
 import pytest
 
 import lerax_like as ll
+from conftest import XLA_DEFAULTS
 
 
 RECORD = pathlib.Path(__file__).parent / "data" / "rollouts_before_constructors.npz"
@@ -64,7 +65,6 @@ def build(scene: str, keywords: dict):
 def rollout_of(scene: str, keywords: dict) -> dict[str, np.ndarray]:
     env = build(scene, keywords)
 
-    @eqx.filter_jit
     def run(env, key):
         start_key, action_key = jax.random.split(key)
         state, _, _ = env.reset(key=start_key)
@@ -72,7 +72,11 @@ def rollout_of(scene: str, keywords: dict) -> dict[str, np.ndarray]:
         ys, info = ll.rollout(env, state, actions)
         return {"y0": state.y, "ys": ys, "reward": info["reward"], "solver_ok": info["solver_ok"]}
 
-    return {name: np.asarray(value) for name, value in run(env, jax.random.key(0)).items()}
+    # Compiled with XLA's defaults, whose bits the record holds (the suite compiles with less
+    # optimisation, conftest.py), as a user's `eqx.filter_jit` would: the same jaxpr (test_jit_env).
+    dynamic, static = eqx.partition(env, eqx.is_array)
+    compiled = jax.jit(lambda dynamic, key: run(eqx.combine(dynamic, static), key), compiler_options=XLA_DEFAULTS)
+    return {name: np.asarray(value) for name, value in compiled(dynamic, jax.random.key(0)).items()}
 
 
 @pytest.fixture(scope="module")
