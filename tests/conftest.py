@@ -261,6 +261,8 @@ def pytest_pyfunc_call(pyfuncitem):
     # (An xdist worker inherits the suite's flags from the process that started the run.)
     own = [flag for flag in os.environ.get("XLA_FLAGS", "").split() if flag not in SUITE_XLA_FLAGS]
     environment = {**os.environ, TEST_XLA: "default", "XLA_FLAGS": " ".join(own)}
+    # The run's own options are not the test's: `--timings=FILE` there would empty FILE.
+    environment.pop("PYTEST_ADDOPTS", None)
     command = [sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "-o", "addopts=", "-q", "-rs", pyfuncitem.nodeid]
     run = subprocess.run(command, cwd=pyfuncitem.config.rootpath, env=environment, capture_output=True, text=True)
     summary = run.stdout.strip().splitlines()[-1] if run.stdout.strip() else ""
