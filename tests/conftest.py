@@ -26,6 +26,12 @@ import lerax_like
 jax.config.update("jax_enable_x64", True)
 jax.config.update("jax_numpy_dtype_promotion", "strict")
 
+# Python's cyclic garbage collector, run a hundred times less often: tracing a program makes
+# hundreds of thousands of small objects, and with Python's default threshold (700) the
+# collector took 12% of a gradient test's time (docs/testing.md). Cycles are still collected,
+# and every module ends with a full collection (`_release_compiled_programs`).
+gc.set_threshold(100_000, 50, 1000)
+
 # XLA compiles the suite's programs with LLVM's optimisation level 0 and its older CPU fusion
 # emitters, where the programs users run compile with XLA's defaults. Compiling is most of the
 # suite's time, and this cuts it by about a third (docs/testing.md). The program JAX hands XLA
