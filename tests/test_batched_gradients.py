@@ -234,13 +234,20 @@ def test_batched_reverse_and_forward_mode_match_central_differences(name, preset
     h = 1e-4
     offsets = jnp.array([[s * d, 0.0] for d in (h, h / 2) for s in (1, -1)] + [[0.0, s * d] for d in (h, h / 2) for s in (1, -1)])
 
+    # Two programs, not three: forward mode's, at the point and at the shifted points (its
+    # primal values there are the central differences' values), and reverse mode's at the point.
+    points = jnp.concatenate([jnp.zeros((1, 2)), offsets])
+
     @jax.jit
     def derivatives(env, forward_env, reset_keys, actions, keys):
         def one(reset_key, acts, key):
-            values, (impacts, ok) = jax.vmap(lambda o: loss(env, reset_key, acts, key, o[0], o[1]))(offsets)
+            def forward_loss(p):
+                value, aux = loss(forward_env, reset_key, acts, key, p[0], p[1])
+                return value, (value, aux)
+
+            forward, (values, (impacts, ok)) = jax.vmap(jax.jacfwd(forward_loss, has_aux=True))(points)
             reverse, _ = jax.grad(lambda p: loss(env, reset_key, acts, key, p[0], p[1]), has_aux=True)(jnp.zeros(2))
-            forward, _ = jax.jacfwd(lambda p: loss(forward_env, reset_key, acts, key, p[0], p[1]), has_aux=True)(jnp.zeros(2))
-            return values, impacts, ok, reverse, forward
+            return values[1:], impacts, ok, reverse, forward[0]
 
         return jax.vmap(one)(reset_keys, actions, keys)
 
