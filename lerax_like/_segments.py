@@ -49,13 +49,22 @@ class GrazingGuardController(GuardedPIDController):
         )
         if self.guard is None:
             raise TypeError("GrazingGuardController needs its guard")
-        fraction = self.guard(t0, t1, y0, y1_candidate, args)
+        # A choice of step, as the controller's own: no derivative flows through it, or in.
+        fraction = constant(self.guard)(*constant((t0, t1, y0, y1_candidate, args)))
         dip = fraction < 1
         keep = keep & ~dip
         next_t0 = jnp.where(dip, t0, next_t0)
         next_t1 = jnp.where(dip, t0 + fraction * (t1 - t0), next_t1)
         state = jax.tree.map(lambda new, old: jnp.where(dip, old, new), state, controller_state)
         return keep, next_t0, next_t1, made_jump, state, result
+
+
+def constant(tree):
+    """`tree` with no derivative flowing through its arrays: for what only chooses (a mode, a
+    step, which guard fired), whose derivative is zero. Its tangents, computed and then
+    dropped, made most of the work of differentiating a hybrid step's choices."""
+    dynamic, static = eqx.partition(tree, eqx.is_inexact_array)
+    return eqx.combine(jax.lax.stop_gradient(dynamic), static)
 
 
 def hermite_dip(g0, g1, m0, m1):
@@ -177,7 +186,8 @@ def segment_solver(
 class Settled(NamedTuple):
     """What `AbstractModes.settle` returns: the state and mode the next segment starts from,
     the events applied (one count per kind of `AbstractModes.kinds`), and the system's own
-    checks of the mode it chose (name -> passed; a failed one fails the step)."""
+    checks of the mode it chose (name -> passed, the names `AbstractModes.checks`; a failed one
+    fails the step)."""
 
     y: State
     mode: Any
@@ -199,6 +209,8 @@ class AbstractModes(eqx.Module):
     """
 
     kinds: eqx.AbstractClassVar[tuple[str, ...]]
+    # The names of the checks `settle` returns (`Settled.checks`), each an entry of the info.
+    checks: ClassVar[tuple[str, ...]] = ()
     root_finder: ClassVar[type[optimistix.Bisection]] = TimeBisection
 
     @property
@@ -298,13 +310,18 @@ def integrate_hybrid(
         # settle in the program, not a second one after the loop.
         settling = (~done & ~last) | jnp.any(fired)
         settled = modes.settle(t, y, u, mode, fired)
+        if set(settled.checks) != set(modes.checks):
+            raise TypeError(
+                f"{type(modes).__name__}.settle returned the checks {sorted(settled.checks)}, "
+                f"and its class declares checks = {modes.checks!r}"
+            )
         y = jnp.where(settling, settled.y, y)
         mode = jax.tree.map(lambda new, old: jnp.where(settling, new, old), settled.mode, mode)
         events = tuple(jnp.where(settling, count, 0) for count in settled.events)
         idle = done | last
         end = solve(y, jnp.where(idle, dt, t), (u, mode))
         event = (end.result == diffrax.RESULTS.event_occurred) & ~idle
-        fired = event & (jnp.arange(no_event.shape[0]) == jnp.argmin(modes.guards(end.t, end.y, (u, mode))))
+        fired = event & (jnp.arange(no_event.shape[0]) == jnp.argmin(constant(modes).guards(*constant((end.t, end.y, (u, mode))))))
         return (
             end.y,
             jnp.where(idle, t, end.t),
@@ -330,7 +347,7 @@ def integrate_hybrid(
     checkpointed = jax.checkpoint(segment, prevent_cse=False)
     zero, never = jnp.zeros((), int), jnp.asarray(jnp.inf, y0.dtype)
     mode = modes.initial_mode(y0)
-    checks = {name: jnp.asarray(True) for name in jax.eval_shape(lambda: modes.settle(0.0, y0, u, mode, no_event)).checks}
+    checks = {name: jnp.asarray(True) for name in modes.checks}
     kinds = range(len(modes.kinds))
     initial = (
         y0, jnp.zeros((), y0.dtype), mode, no_event, jnp.asarray(True), checks, zero, zero,

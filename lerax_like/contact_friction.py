@@ -35,6 +35,7 @@ class ContactsWithFriction(AbstractModes):
     """
 
     kinds: ClassVar[tuple[str, ...]] = ("impact", "switch")
+    checks: ClassVar[tuple[str, ...]] = (*FrictionModes.checks, "contacts_bounce")
 
     surfaces: Surfaces
     friction: FrictionModes

@@ -49,7 +49,7 @@ import jax
 import jax.numpy as jnp
 import optimistix
 
-from ._segments import AbstractModes, Settled, hermite_dip
+from ._segments import AbstractModes, Settled, constant, hermite_dip
 from ._types import Array, Bool, Float, Input, Scalar, ScalarLike, State
 from .physics import AbstractDynamics
 from .physics.contact import AbstractContact, AbstractImpulseContact, MechanicalDynamics, with_coordinates
@@ -193,7 +193,8 @@ class Surfaces(AbstractModes):
         resting surfaces, the surfaces struck and the surfaces touched. All of it is skipped
         when no state (of a vmapped batch) touches a surface.
         """
-        touching = self.gaps(y) <= 2 * self.offset(y)
+        # Whether a surface is touched is a choice (`constant`), as are `_settle`'s impacts and rest.
+        touching = constant(self).gaps(constant(y)) <= 2 * constant(self).offset(constant(y))
         return jax.lax.cond(
             eqxi.unvmap_any(jnp.any(touching)),
             lambda t, y, u, again: self._settle(t, y, u, again),
@@ -208,9 +209,13 @@ class Surfaces(AbstractModes):
         touching_all, hits_all, candidates_all = [], [], []
         for contact, size in zip(self.contacts, sizes):
             for local in range(size):
-                gap = contact.gaps(self.dynamics, y)[local]
-                rate = jax.jvp(lambda z: contact.gaps(self.dynamics, z)[local], (y,), (self.physics.vector_field(self.t0 + t, y, u),))[1]
-                touching = gap <= 2 * offset
+                choosing, fixed = constant((self, contact)), constant((t, y, u, offset))
+                gap = choosing[1].gaps(choosing[0].dynamics, fixed[1])[local]
+                rate = jax.jvp(
+                    lambda z: choosing[1].gaps(choosing[0].dynamics, z)[local], (fixed[1],),
+                    (choosing[0].physics.vector_field(choosing[0].t0 + fixed[0], fixed[1], fixed[2]),),
+                )[1]
+                touching = gap <= 2 * fixed[3]
                 hit = touching & (rate < 0) & ~again[start + local]
                 y = jnp.where(hit, contact.impact(self.dynamics, y, local), y)
                 touching_all.append(touching)
@@ -222,7 +227,7 @@ class Surfaces(AbstractModes):
         start = 0
         for contact, size in zip(self.contacts, sizes):
             if isinstance(contact, AbstractImpulseContact):
-                speeds = contact.normal_speeds(self.dynamics, y)
+                speeds = constant(contact).normal_speeds(constant(self.dynamics), constant(y))
                 for local in range(size):
                     slow = touching[start + local] & (
                         (jnp.abs(speeds[local]) < contact.min_rebound_speed) | again[start + local]
@@ -233,7 +238,7 @@ class Surfaces(AbstractModes):
                 candidates_all.extend([jnp.asarray(False)] * size)
             start += size
         candidates = jnp.stack(candidates_all)
-        resting = candidates & (self.forces(t, y, u, candidates) > 0)
+        resting = candidates & (constant(self).forces(*constant((t, y, u)), candidates) > 0)
         # Re-place impulse contacts' touching surfaces just off them (a Newton step on the
         # positions along the gap's gradient: exact for flat surfaces).
         start = 0

@@ -42,7 +42,7 @@ from typing import Any, ClassVar, NamedTuple, final
 import jax
 import jax.numpy as jnp
 
-from ._segments import AbstractModes, Settled
+from ._segments import AbstractModes, Settled, constant
 from ._types import Array, Bool, Float, Input, ScalarLike, State
 from .physics import AbstractDynamics
 from .physics.contact import with_coordinates
@@ -76,6 +76,7 @@ class FrictionModes(AbstractModes):
     """
 
     kinds: ClassVar[tuple[str, ...]] = ("switch",)
+    checks: ClassVar[tuple[str, ...]] = ("friction_consistent",)
 
     physics: AbstractDynamics
     # Duck-typed: an `AbstractDynamics` with `coordinates` and `forced_vector_field` (what
@@ -154,7 +155,8 @@ class FrictionModes(AbstractModes):
         ended = jnp.any(fired)
         s, sigma = mode
         k = self.friction.coordinate
-        forces = self.forces(t, y, u, mode)
+        # The mode is a choice (`constant`): no derivative flows into the forces that choose it.
+        forces = constant(self).forces(*constant((t, y, u, mode)))
         holds = jnp.abs(forces.hold) <= self.friction.static_friction * jnp.abs(forces.hold_normal)
         away = -jnp.sign(forces.hold)
         held_sign = jnp.where(forces.hold_normal >= 0, 1.0, -1.0).astype(y.dtype)
@@ -172,7 +174,7 @@ class FrictionModes(AbstractModes):
         _, rates = self.dynamics.coordinates(y)
         y = jnp.where(stops, with_coordinates(self.dynamics, y, velocities=rates.at[k].set(0.0)), y)
         # The new mode's slip must be consistent (Painleve), checked where it starts.
-        denominator = self.forces(t, y, u, (new_s, new_sigma)).denominator
+        denominator = constant(self).forces(*constant((t, y, u, (new_s, new_sigma)))).denominator
         consistent = ((new_s == 0) | (denominator > 0)) & ~fired[INCONSISTENT]
         return Settled(y, (new_s, new_sigma), (ended.astype(int),), {"friction_consistent": consistent})
 

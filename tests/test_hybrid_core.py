@@ -21,6 +21,7 @@ from lerax_like._segments import AbstractModes, Settled, integrate_hybrid
 
 class Alarms(AbstractModes):
     kinds: ClassVar[tuple[str, ...]] = ("alarm",)
+    checks: ClassVar[tuple[str, ...]] = ("at_most_two",)
     times: jax.Array
 
     @property
@@ -54,6 +55,20 @@ def test_two_guards_crossing_within_one_fixed_step_are_taken_in_time_order(times
         assert int(info["alarms"]) == 2
         np.testing.assert_allclose(np.asarray(y), [1.0, *times], rtol=0, atol=1e-14)
         np.testing.assert_allclose(float(info["first_alarm_time"]), min(times), rtol=0, atol=1e-14)
+
+
+class _UndeclaredCheck(Alarms):
+    checks: ClassVar[tuple[str, ...]] = ()
+
+
+def test_a_check_that_settle_returns_and_the_class_does_not_declare_is_refused_by_name():
+    """The info's entries are known before tracing (`AbstractModes.checks`), as its kinds are: a
+    `settle` returning a check its class does not declare is an error naming both."""
+    with jax.enable_x64(True):
+        integrator = ll.Integrator(diffrax.Euler())
+        modes = _UndeclaredCheck(times=jnp.asarray([0.5, 0.75]))
+        with pytest.raises(TypeError, match=r"_UndeclaredCheck\.settle returned the checks \['at_most_two'\].*checks = \(\)"):
+            integrate_hybrid(integrator, modes, jnp.zeros(3), None, 1.0)
 
 
 class _SummedBisection(optimistix.Bisection):
