@@ -16,8 +16,11 @@ from conftest import relative_error
 
 @pytest.mark.slow
 def test_policy_trained_through_the_simulator_balances_for_500_steps():
-    # The notebook's recipe (1024 envs, a horizon curriculum, a cart cost), another seed.
-    num_envs, horizons = 1024, (50, 100, 200)
+    # The notebook's recipe (a horizon curriculum, a cart cost) with 128 envs where it trains
+    # 1024, and another seed. The claim is that training through the simulator balances, not
+    # the notebook's scale: 128 envs balanced 100 of 100 starts from seeds 0 to 4 each, in 8 to
+    # 10 s of one worker against 66 s with 1024 (0576bc1's full run, docs/testing.md).
+    num_envs, horizons = 128, (50, 100, 200)
     envs = eqx.filter_vmap(
         lambda mass: ll.make("CartPoleContinuous",
             pole_mass=mass, reward="smooth", theta_threshold_radians=math.inf, x_threshold=math.inf
