@@ -253,6 +253,21 @@ def test_semi_implicit_euler_pushed_into_a_wall_comes_to_rest_without_failing(sc
 
 
 
+@pytest.mark.parametrize(
+    ("dynamics", "size"), [(ll.physics.BallDynamics(mass=1.3), 4), (ll.physics.SlidingBlockDynamics(mass=0.7, incline=0.2), 2)],
+    ids=["Ball", "SlidingBlock"],
+)
+def test_a_point_mass_s_closed_form_mass_matrix_is_its_energy_s_hessian(dynamics, size):
+    # Impacts and contact forces read M from the closed form; the Hessian of a point mass's
+    # energy in its velocities is its mass, exactly.
+    for y in np.random.default_rng(4).normal(size=(3, size)):
+        y = jnp.asarray(y)
+        _, q_dot = dynamics.coordinates(y)
+        hessian = jax.hessian(lambda v: dynamics.energy(with_coordinates(dynamics, y, velocities=v)))(q_dot)
+        np.testing.assert_array_equal(np.asarray(mass_matrix(dynamics, y)), np.asarray(hessian))
+        assert mass_matrix(dynamics, y).dtype == hessian.dtype
+
+
 @pytest.mark.slow  # 2.1 to 7.1 s of one worker at 4ff5f8c (docs/testing.md): CI's, not the quick loop's
 @pytest.mark.parametrize(
     ("dynamics", "size"),

@@ -35,6 +35,10 @@ class BallDynamics(AbstractConservativeDynamics):
     def energy(self, y: State) -> Scalar:
         return 0.5 * self.mass * (y[2] ** 2 + y[3] ** 2) + self.mass * self.gravity * y[1]
 
+    def mass_matrix(self, y: State) -> Float[Array, "2 2"]:
+        """`M = mass I`: the Hessian of `energy` in the velocities, in closed form."""
+        return self.mass * jnp.eye(2, dtype=y.dtype)
+
 
 @final
 class FloorAndWall(AbstractImpulseContact):

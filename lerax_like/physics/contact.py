@@ -29,7 +29,7 @@ import numpy as np
 
 from .._fields import POSITIVE, AbstractParametrised, Range, option
 from .._types import Array, Bool, Float, Scalar, ScalarLike, State
-from ._base import AbstractChainDynamics, AbstractDynamics, require_attributes
+from ._base import AbstractChainDynamics, AbstractConservativeDynamics, AbstractDynamics, require_attributes
 
 RESTITUTION = Range(
     "finite and in [0, 1] (allowed range [0, 1])",
@@ -159,16 +159,17 @@ def with_coordinates(dynamics, y: State, *, positions=None, velocities=None) -> 
 
 
 def _closed_form(dynamics) -> bool:
-    return isinstance(dynamics, AbstractChainDynamics) and callable(getattr(dynamics, "mass_matrix", None))
+    return isinstance(dynamics, AbstractConservativeDynamics) and callable(getattr(dynamics, "mass_matrix", None))
 
 
 def mass_matrix(dynamics, y: State) -> Float[Array, "q q"]:
     """`M(q)`: the Hessian of the energy in the generalised velocities (the potential has none).
 
-    A chain that gives its own closed form (`mass_matrix(y)`: the cart-pole, the chains of
-    `lerax_like.physics.chain`) is read from it: the same matrix (tests/test_contact.py), and
-    a gradient program through located contacts no longer compiles a Hessian of the energy,
-    differentiated again, at every evaluation of a guard.
+    Conservative dynamics that give their own closed form (`mass_matrix(y)`: the cart-pole,
+    the chains of `lerax_like.physics.chain`, the ball, the sliding block) are read from it:
+    the same matrix (tests/test_contact.py), and a gradient program through located contacts
+    no longer traces and compiles a Hessian of the energy, differentiated again, at every
+    evaluation of a guard.
     """
     if _closed_form(dynamics):
         return dynamics.mass_matrix(y)

@@ -48,6 +48,10 @@ class SlidingBlockDynamics(AbstractConservativeDynamics):
         position, velocity = y
         return 0.5 * self.mass * velocity**2 + self.mass * self.gravity * position * jnp.sin(self.incline)
 
+    def mass_matrix(self, y: State) -> Float[Array, "1 1"]:
+        """`M = [[mass]]`: the Hessian of `energy` in the velocity, in closed form."""
+        return self.mass * jnp.ones((1, 1), y.dtype)
+
 
 @final
 class PlaneEnd(AbstractImpulseContact):
