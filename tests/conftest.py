@@ -189,6 +189,7 @@ COMPILATION_CACHE_SETTINGS = {
     "jax_persistent_cache_min_entry_size_bytes": -1,
 }
 NOTEBOOK_SETTINGS = "LERAX_LIKE_NOTEBOOKS"
+SB3_LOGS = "SB3_LOGDIR"
 _CACHE_INPUT = "lerax_like_compilation_cache_dir"
 # The cache's folder, and the variables this run set with the values they had before.
 _RUN_ENVIRONMENT = pytest.StashKey[tuple[str, dict[str, str | None]]]()
@@ -232,6 +233,11 @@ def pytest_configure(config):
         # LERAX_LIKE_NOTEBOOKS=full to run them in full.
         replaced[NOTEBOOK_SETTINGS] = os.environ.get(NOTEBOOK_SETTINGS)
         os.environ.setdefault(NOTEBOOK_SETTINGS, "small")
+        # Stable-Baselines3's `learn` makes a log folder even when it logs to stdout only, in
+        # the system's temporary folder by default (`SB3-<date and time>`, one a run, left
+        # behind): here it is the run's own, removed with it.
+        replaced[SB3_LOGS] = os.environ.get(SB3_LOGS)
+        os.environ.setdefault(SB3_LOGS, os.path.join(folder, "sb3-logs"))
         config.stash[_RUN_ENVIRONMENT] = (folder, replaced)
 
 
