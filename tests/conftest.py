@@ -47,9 +47,10 @@ SUITE_XLA_FLAGS = ("--xla_backend_optimization_level=0", "--xla_cpu_use_fusion_e
 XLA_DEFAULTS = {"xla_backend_optimization_level": 3, "xla_cpu_use_fusion_emitters": True}
 TEST_XLA = "LERAX_LIKE_TEST_XLA"
 _XLA_FLAGS_BEFORE = os.environ.get("XLA_FLAGS")
+# The flags the user gave (an xdist worker inherits the suite's from the process that started the run).
+_USER_XLA_FLAGS = [flag for flag in (_XLA_FLAGS_BEFORE or "").split() if flag not in SUITE_XLA_FLAGS]
 if os.environ.get(TEST_XLA) != "default":
-    _own = (_XLA_FLAGS_BEFORE or "").split()
-    os.environ["XLA_FLAGS"] = " ".join([flag for flag in SUITE_XLA_FLAGS if flag not in _own] + _own)
+    os.environ["XLA_FLAGS"] = " ".join([*SUITE_XLA_FLAGS, *_USER_XLA_FLAGS])
 
 # Scenes that tests define, as a contributor would (`tests/<name>/scene.py`, which calls
 # `lerax_like.register_scene`): imported here, before collection, so that every test
@@ -270,9 +271,7 @@ def pytest_pyfunc_call(pyfuncitem):
     It passes only if that process ran it and it passed there."""
     if pyfuncitem.get_closest_marker("xla_defaults") is None or os.environ.get(TEST_XLA) == "default":
         return None
-    # (An xdist worker inherits the suite's flags from the process that started the run.)
-    own = [flag for flag in os.environ.get("XLA_FLAGS", "").split() if flag not in SUITE_XLA_FLAGS]
-    environment = {**os.environ, TEST_XLA: "default", "XLA_FLAGS": " ".join(own)}
+    environment = {**os.environ, TEST_XLA: "default", "XLA_FLAGS": " ".join(_USER_XLA_FLAGS)}
     # The run's own options are not the test's: `--timings=FILE` there would empty FILE.
     environment.pop("PYTEST_ADDOPTS", None)
     command = [sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "-o", "addopts=", "-q", "-rs", pyfuncitem.nodeid]
