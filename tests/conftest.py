@@ -172,6 +172,18 @@ def unforced_run_against(env, y0, reference, *, steps=100, every=25, atol=1e-6):
     return state, int(np.sum(impacts)), int(np.sum(switches))
 
 
+def jacfwd_and_value(loss, argnums=0):
+    """`jax.jacfwd` of `loss`, which returns `(value, aux)`, with `(value, aux)` as its auxiliary
+    output: one forward-mode program gives the derivative and the value, so that, vmapped over
+    a point and its shifted copies, it gives the central differences' values too."""
+
+    def value_as_aux(*args):
+        value, aux = loss(*args)
+        return value, (value, aux)
+
+    return jax.jacfwd(value_as_aux, argnums=argnums, has_aux=True)
+
+
 def hybrid(name: str) -> bool:
     """Whether the registered scene `name` is hybrid (located impacts, stick-slip, a floor)."""
     return lerax_like.SCENES[name]().modes() is not None
@@ -184,7 +196,7 @@ def quick_unless_hybrid(name: str, *values, id: str | None = None):
     return pytest.param(name, *values, marks=[pytest.mark.slow] if hybrid(name) else [], id=id)
 
 
-__all__ = ["STATE_RTOL", "XLA_DEFAULTS", "hybrid", "jnp", "quick_unless_hybrid", "relative_error", "tree_allclose", "unforced_run_against"]
+__all__ = ["STATE_RTOL", "XLA_DEFAULTS", "hybrid", "jacfwd_and_value", "jnp", "quick_unless_hybrid", "relative_error", "tree_allclose", "unforced_run_against"]
 
 
 # JAX's persistent compilation cache, shared by every process of one run. Most of the suite's

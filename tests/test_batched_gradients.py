@@ -24,46 +24,7 @@ import numpy as np
 import pytest
 
 import lerax_like as ll
-
-
-def _walled_cartpole_batch(solver, envs=4):
-    # A rail 6 cm either side: from the resets (within 5 cm of the centre) the pushed carts
-    # reach the wall at different steps of the rollout.
-    env = ll.make("CartPoleContinuous", restitution=0.8, track_limit=0.06, solver=solver)
-    states = jax.vmap(lambda key: env.reset(key=key)[0])(jr.split(jr.key(0), envs))
-    return env, states
-
-
-# Two gradient programs through located walls (the batch's and one env's): slow. On d73c0ea
-# both cases fail with lineax's "non-finite input".
-@pytest.mark.slow
-@pytest.mark.parametrize("solver", ["euler", "rk4"])
-def test_batched_reverse_mode_through_walls_is_finite_and_equals_each_envs_own(solver):
-    # Issue 29: jax.grad of a vmapped rollout of ll.make("CartPoleContinuous", restitution=0.8) raised
-    # lineax's "non-finite input" (the default Euler, and RK4), one env alone did not.
-    env, states = _walled_cartpole_batch(solver)
-    actions = jnp.full((12, 1), 0.3)
-
-    def loss(env, state):
-        ys, info = ll.rollout(env, state, actions)
-        return jnp.sum(ys**2), info["impacts"]
-
-    def batched(env):
-        values, impacts = jax.vmap(lambda state: loss(env, state))(states)
-        return jnp.sum(values), impacts
-
-    gradient, impacts = eqx.filter_jit(eqx.filter_grad(batched, has_aux=True))(env)
-    # The envs hit the wall at different steps, so in some step one env has finished while another has not.
-    first_impact = np.argmax(np.asarray(impacts) > 0, axis=1)
-    assert np.all(np.asarray(impacts).sum(axis=1) >= 1) and len(set(first_impact.tolist())) > 1, impacts
-    single = eqx.filter_jit(eqx.filter_grad(lambda env, state: loss(env, state)[0]))
-    for i in range(states.y.shape[0]):
-        own = single(env, jax.tree.map(lambda leaf: leaf[i], states))
-        batched_leaves, own_leaves = jax.tree.leaves(gradient), jax.tree.leaves(own)
-        sum_of_own = own_leaves if i == 0 else [a + b for a, b in zip(sum_of_own, own_leaves)]
-    for total, expected in zip(batched_leaves, sum_of_own):
-        assert np.all(np.isfinite(total))
-        np.testing.assert_allclose(total, expected, rtol=1e-10, atol=1e-12)
+from conftest import jacfwd_and_value
 
 
 # -- every scene x every preset it accepts: reverse and forward mode against central differences --
@@ -227,7 +188,9 @@ def test_batched_reverse_and_forward_mode_match_central_differences(name, preset
         # The task's reward too: a trainer differentiates it (jit, vmap and grad composed
         # through the scene's whole step, as it is registered).
         value = jnp.sum(ys**2) + jnp.sum(jnp.sin(ys)) + jnp.sum(info["reward"])
-        return value, (jnp.sum(info["impacts"]) if "impacts" in info else jnp.zeros((), int), jnp.all(info["solver_ok"]))
+        impacts = info["impacts"] if "impacts" in info else jnp.zeros(len(actions), int)
+        # (and the step of the first impact: the batch's envs strike at different steps)
+        return value, (jnp.sum(impacts), jnp.argmax(impacts > 0), jnp.all(info["solver_ok"]))
 
     # Central differences at h and h/2 in each input, and their Richardson extrapolation
     # (error O(h^4)); h = 1e-4 relative.
@@ -240,25 +203,34 @@ def test_batched_reverse_and_forward_mode_match_central_differences(name, preset
 
     @jax.jit
     def derivatives(env, forward_env, reset_keys, actions, keys):
-        def one(reset_key, acts, key):
-            def forward_loss(p):
-                value, aux = loss(forward_env, reset_key, acts, key, p[0], p[1])
-                return value, (value, aux)
+        def forward(reset_key, acts, key):
+            jacobians, (values, aux) = jax.vmap(jacfwd_and_value(lambda p: loss(forward_env, reset_key, acts, key, p[0], p[1])))(points)
+            return values[1:], aux, jacobians[0]
 
-            forward, (values, (impacts, ok)) = jax.vmap(jax.jacfwd(forward_loss, has_aux=True))(points)
-            reverse, _ = jax.grad(lambda p: loss(env, reset_key, acts, key, p[0], p[1]), has_aux=True)(jnp.zeros(2))
-            return values[1:], impacts, ok, reverse, forward[0]
+        # Reverse mode as a trainer takes it: `jax.grad` of the batch's vmapped loss (issue 29),
+        # each env with its own copy of the two inputs, so that each env's derivative is read.
+        def batch_loss(inputs):
+            values, _ = jax.vmap(lambda reset_key, acts, key, p: loss(env, reset_key, acts, key, p[0], p[1]))(
+                reset_keys, actions, keys, inputs
+            )
+            return jnp.sum(values)
 
-        return jax.vmap(one)(reset_keys, actions, keys)
+        reverse = jax.grad(batch_loss)(jnp.zeros((reset_keys.shape[0], 2)))
+        return (*jax.vmap(forward)(reset_keys, actions, keys), reverse)
 
-    values, impacts, ok, reverse, forward = derivatives(env, forward_env, reset_keys, actions, keys)
-    values, impacts, reverse, forward = (np.asarray(a) for a in (values, impacts, reverse, forward))
+    values, (impacts, first_impact, ok), forward, reverse = derivatives(env, forward_env, reset_keys, actions, keys)
+    values, impacts, first_impact, reverse, forward = (np.asarray(a) for a in (values, impacts, first_impact, reverse, forward))
     assert bool(jnp.all(ok)), f"{name}-{preset}: a solve failed"
     assert np.all(np.isfinite(values)) and np.all(np.isfinite(reverse)) and np.all(np.isfinite(forward))
     if name in NOT_SMOOTH:
         return
-    if walled:  # an env rebounds and strikes again: the derivative through a second impact too
+    if walled:
+        # An env rebounds and strikes again: the derivative through a second impact too. The
+        # envs strike first at different steps, so that in some step one env of the batch has
+        # finished while another is still in it: issue 29's batched NaN (lineax's "non-finite
+        # input" on d73c0ea, Euler and RK4).
         assert np.max(impacts) >= 2, impacts
+        assert len(set(first_impact[:, 0].tolist())) > 1, first_impact
     if _contact(env):
         # Every start makes an impact, and the same ones at every shifted point (one smooth piece).
         assert np.all(impacts >= 1), impacts

@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 
 import lerax_like as ll
+from conftest import jacfwd_and_value
 
 
 EXPLICIT = [name for name, preset in ll.SOLVERS.items() if not preset.implicit]
@@ -52,11 +53,7 @@ def _check_against_central_differences(loss, theta, min_impacts: int, label: str
         if forward_loss is None:
             return jax.vmap(jax.value_and_grad(loss, has_aux=True))(points), None
 
-        def with_value(theta):
-            value, aux = forward_loss(theta)
-            return value, (value, aux)
-
-        forward, (values, (impacts, ok)) = jax.vmap(jax.jacfwd(with_value, has_aux=True))(points)
+        forward, (values, (impacts, ok)) = jax.vmap(jacfwd_and_value(forward_loss))(points)
         (_, (impact, fine)), grad = jax.value_and_grad(loss, has_aux=True)(points[0])
         return ((values, (jnp.append(impacts, impact), jnp.append(ok, fine))), grad[None]), forward
 

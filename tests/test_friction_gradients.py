@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 import lerax_like as ll
+from conftest import jacfwd_and_value
 
 
 EXPLICIT = [name for name, preset in ll.SOLVERS.items() if not preset.implicit]
@@ -88,10 +89,6 @@ def test_forward_mode_through_stick_slip_matches_central_differences(solver):
     loss = _loss_of(ll.with_adjoint(_env(solver), "forward"))
     points, steps = _points()
     # One program: the Jacobians and, as their auxiliary output, the primal values.
-    def value_twice(theta):
-        value, aux = loss(theta)
-        return value, (value, aux)
-
-    jacobians, (values, (switches, _, ok)) = jax.jit(jax.vmap(jax.jacfwd(value_twice, has_aux=True)))(points)
+    jacobians, (values, (switches, _, ok)) = jax.jit(jax.vmap(jacfwd_and_value(loss)))(points)
     assert bool(jnp.all(ok)) and int(jnp.min(switches)) == int(jnp.max(switches)) >= 3
     _check(jacobians[0], _central(np.asarray(values), steps), f"{solver} forward, vmapped")
