@@ -40,6 +40,34 @@ class HybridSolution(NamedTuple):
     segments: list
 
 
+class _Programs(NamedTuple):
+    """A flow's vector field `(t0, s, y, u)` (the field at time `t0 + s`), and each contact's
+    gap `(y)`, closing rate `(t0, y, u)` and impact map `(y)`, each a `jax.jit` program."""
+
+    field: Callable
+    gaps: list[Callable]
+    closing_rates: list[Callable]
+    impacts: list[Callable]
+
+
+def _programs(vector_field: Callable, contacts: Sequence[Contact]) -> _Programs:
+    """`vector_field(t, y, u)` and the contacts compiled once, the step's start `t0` and the
+    input `u` arguments: one set of programs serves every env step of a rollout."""
+
+    def field(t0, s, y, u):
+        return vector_field(t0 + s, y, u)
+
+    return _Programs(
+        field=jax.jit(field),
+        # (Wrapped: a bound method of an Equinox module, which holds arrays, cannot key `jax.jit`'s cache.)
+        gaps=[jax.jit(lambda y, gap=contact.gap: gap(y)) for contact in contacts],
+        closing_rates=[
+            jax.jit(lambda t0, y, u, gap=contact.gap: jax.jvp(gap, (y,), (field(t0, 0.0, y, u),))[1]) for contact in contacts
+        ],
+        impacts=[jax.jit(lambda y, impact=contact.impact: impact(y)) for contact in contacts],
+    )
+
+
 def hybrid_reference(
     vector_field: Callable,
     contacts: Sequence[Contact],
@@ -60,18 +88,26 @@ def hybrid_reference(
     (a Zeno run), or when a solve fails: a reference never hides a failure.
     `segments` holds each segment's `solve_ivp` solution (dense if `dense_output`).
     """
+    with jax.enable_x64(True):
+        programs = _programs(vector_field, contacts)
+    return _hybrid_solve(
+        programs, 0.0, y0, u, t1, method=method, rtol=rtol, atol=atol, max_events=max_events, dense_output=dense_output
+    )
+
+
+def _hybrid_solve(
+    programs: _Programs, t0, y0, u, t1: float, *, method: str, rtol: float, atol: float, max_events: int,
+    dense_output: bool,
+) -> HybridSolution:
+    """`hybrid_reference` of compiled `programs`, the field read at `t0 + t`."""
     solve_ivp = scipy_solve_ivp()
     with jax.enable_x64(True):
         u = jnp.asarray(u, dtype=jnp.float64)
-        f = jax.jit(lambda t, y: vector_field(t, y, u))
-        gaps = [jax.jit(lambda y, gap=contact.gap: gap(y)) for contact in contacts]
-        closing_rates = [
-            jax.jit(lambda y, gap=contact.gap: jax.jvp(gap, (y,), (f(0.0, y),))[1]) for contact in contacts
-        ]
-        impacts = [jax.jit(lambda y, impact=contact.impact: impact(y)) for contact in contacts]
+        t0 = jnp.asarray(t0, dtype=jnp.float64)
+        gaps, closing_rates, impacts = programs.gaps, programs.closing_rates, programs.impacts
 
         def rhs(t, y):
-            return np.asarray(f(np.float64(t), y))
+            return np.asarray(programs.field(t0, np.float64(t), y, u))
 
         def event(index):
             def closing(t, y):
@@ -89,7 +125,7 @@ def hybrid_reference(
         while True:
             for index, gap in enumerate(gaps):
                 # A plastic impact leaves the gap closed and not opening: a resting contact.
-                if float(gap(y)) <= 0 and float(closing_rates[index](y)) <= 0:
+                if float(gap(y)) <= 0 and float(closing_rates[index](t0, y, u)) <= 0:
                     raise RuntimeError(
                         f"hybrid reference: at t={t} contact {index}'s gap is closed ({float(gap(y)):.3g}) and "
                         "closing, a resting contact that this reference does not model"
@@ -134,13 +170,15 @@ def hybrid_reference_trajectories(
     """As `dense_reference_trajectories`, through the impacts of the env's contacts: one hybrid
     solve per initial state and env step (the field read at the episode's time `k dt + s`),
     each restarted at every impact (`segmented_trajectories`)."""
-    contacts = contacts_of(env)
+    # Compiled once for the rollout (each step's start `t0` and input are arguments): made
+    # afresh for every env step, its programs took about 90 ms a step to trace and compile.
+    with jax.enable_x64(True):
+        programs = _programs(env.physics.vector_field, contacts_of(env))
 
     def step(k: int, y, u):
         t0 = np.float64(k) * np.float64(dt)
-        solution = hybrid_reference(
-            lambda s, y, u: env.physics.vector_field(t0 + s, y, u), contacts, y, u, dt,
-            method=method, rtol=rtol, atol=atol, dense_output=len(fractions) > 0,
+        solution = _hybrid_solve(
+            programs, t0, y, u, dt, method=method, rtol=rtol, atol=atol, max_events=1000, dense_output=len(fractions) > 0,
         )
         return solution.y, solution.segments
 
