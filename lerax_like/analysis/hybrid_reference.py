@@ -40,6 +40,10 @@ class HybridSolution(NamedTuple):
     segments: list
 
 
+# Impacts in one solve, past which `hybrid_reference` reports a Zeno run.
+MAX_EVENTS = 1000
+
+
 class _Programs(NamedTuple):
     """A flow's vector field `(t0, s, y, u)` (the field at time `t0 + s`), and each contact's
     gap `(y)`, closing rate `(t0, y, u)` and impact map `(y)`, each a `jax.jit` program."""
@@ -78,7 +82,7 @@ def hybrid_reference(
     method: str = "DOP853",
     rtol: float = 1e-12,
     atol: float = 1e-12,
-    max_events: int = 1000,
+    max_events: int = MAX_EVENTS,
     dense_output: bool = False,
 ) -> HybridSolution:
     """Integrate `dy/dt = vector_field(t, y, u)` over `[0, t1]` through every impact.
@@ -178,7 +182,7 @@ def hybrid_reference_trajectories(
     def step(k: int, y, u):
         t0 = np.float64(k) * np.float64(dt)
         solution = _hybrid_solve(
-            programs, t0, y, u, dt, method=method, rtol=rtol, atol=atol, max_events=1000, dense_output=len(fractions) > 0,
+            programs, t0, y, u, dt, method=method, rtol=rtol, atol=atol, max_events=MAX_EVENTS, dense_output=len(fractions) > 0,
         )
         return solution.y, solution.segments
 
