@@ -156,7 +156,7 @@ def unforced_run_against(env, y0, reference, *, steps=100, every=25, atol=1e-6):
     return state, int(np.sum(impacts)), int(np.sum(switches))
 
 
-def jacfwd_and_value(loss, argnums=0):
+def jacfwd_and_value(loss):
     """`jax.jacfwd` of `loss`, which returns `(value, aux)`, with `(value, aux)` as its auxiliary
     output: one forward-mode program gives the derivative and the value, so that, vmapped over
     a point and its shifted copies, it gives the central differences' values too."""
@@ -165,7 +165,7 @@ def jacfwd_and_value(loss, argnums=0):
         value, aux = loss(*args)
         return value, (value, aux)
 
-    return jax.jacfwd(value_as_aux, argnums=argnums, has_aux=True)
+    return jax.jacfwd(value_as_aux, has_aux=True)
 
 
 def hybrid(name: str) -> bool:
