@@ -140,6 +140,13 @@ def segment_solver(
             "adjoint BacksolveAdjoint cannot differentiate through located events (diffrax refuses "
             "events with it): use with_adjoint(env, 'checkpoint') (reverse mode) or 'forward' (jacfwd)"
         )
+    if type(adjoint) is diffrax.RecursiveCheckpointAdjoint and integrator.max_steps == 1:
+        # A segment of one solver step (a constant-step preset): reverse mode through that step
+        # as JAX differentiates any function (`DirectAdjoint`'s loop of one step is the step),
+        # not through the checkpointed loop's machinery, which searches for what its body
+        # perturbs by tracing it again and again. The same values and derivatives; about a
+        # third less to trace and compile. Forward mode passes it too.
+        adjoint = diffrax.DirectAdjoint()
     solver = integrator.solver
     if isinstance(solver, SemiImplicitEuler):
         term = ProjectedODETerm(vector_field, velocity_indices=velocity_indices)
