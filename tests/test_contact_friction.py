@@ -158,9 +158,10 @@ def test_vmapped_gradient_through_impact_and_switches_matches_central_difference
     h = 1e-5
     shifts = np.concatenate([np.zeros((1, 4)), *[sign * h * np.eye(4)[i][None] for i in range(4) for sign in (1, -1)]])
     points = starts[:, None, :] + jnp.asarray(shifts)[None]  # (start, shift, state)
-    forward_at = jax.vmap(jax.vmap(jacfwd_and_value(lambda y0: (_final(forward_env, y0), ()))))
-    jacobians, (values, _) = jax.jit(forward_at)(points)
-    values = np.asarray(values)
+    # Every (start, shift) pair in one vmap: a vmap of a vmap batches the step twice over.
+    forward_at = jax.vmap(jacfwd_and_value(lambda y0: (_final(forward_env, y0), ())))
+    jacobians, (values, _) = jax.jit(forward_at)(points.reshape(-1, 4))
+    jacobians, values = jacobians.reshape(points.shape), np.asarray(values).reshape(points.shape[:2])
     central = np.stack([(values[:, 1 + 2 * i] - values[:, 2 + 2 * i]) / (2 * h) for i in range(4)], axis=1)
     forward = jacobians[:, 0]
     np.testing.assert_allclose(reverse, central, rtol=0, atol=1e-5)
