@@ -183,26 +183,30 @@ def parameter_names(dynamics: AbstractDynamics) -> list[str]:
     return names
 
 
-def _with(dynamics, name, value):
-    return eqx.tree_at(lambda d: getattr(d, name), dynamics, value)
+def _along(dynamics, name):
+    """The tangent of `dynamics`' arrays along its parameter `name`: one there, zero in every other."""
+    zeros = jax.tree.map(jnp.zeros_like, eqx.filter(dynamics, eqx.is_inexact_array))
+    return eqx.tree_at(lambda d: getattr(d, name), zeros, jnp.ones_like(getattr(dynamics, name)))
 
 
+# The parameter is picked by the tangent, an argument: one compilation serves every parameter,
+# where one per parameter's name was compiled before (ten for the compass gait's five).
 @eqx.filter_jit
-def _parameter_derivative(dynamics, y, name_value, name: str):
-    """`dP/dp` at `(y, p)` for the one parameter `name`, by `jax.jvp` (forward mode)."""
-    return jax.jvp(lambda p: _map(_with(dynamics, name, p), y), (name_value,), (jnp.ones_like(name_value),))[1]
+def _parameter_derivative(dynamics, y, along):
+    """`dP/dp` at `y` along the parameter that `along` picks (`_along`), by `jax.jvp` (forward mode)."""
+    arrays, static = eqx.partition(dynamics, eqx.is_inexact_array)
+    return jax.jvp(lambda a: _map(eqx.combine(a, static), y), (arrays,), (along,))[1]
 
 
 def _jacobian_of(dynamics, y):
     return jax.jacfwd(lambda z: _map(dynamics, z))(y)
 
 
-def _jacobian_derivative(dynamics, y, name, value, dy):
-    """The total derivative of `DP(y*(p), p)` along `p`: `D2P dy + dDP/dp`, by one `jax.jvp`."""
-    return jax.jvp(lambda z, p: _jacobian_of(_with(dynamics, name, p), z), (y, value), (dy, jnp.ones_like(value)))[1]
-
-
-_jacobian_derivative_jit = eqx.filter_jit(_jacobian_derivative)
+@eqx.filter_jit
+def _jacobian_derivative(dynamics, y, dy, along):
+    """The total derivative of `DP(y*(p), p)` along `p` (picked by `along`): `D2P dy + dDP/dp`, by one `jax.jvp`."""
+    arrays, static = eqx.partition(dynamics, eqx.is_inexact_array)
+    return jax.jvp(lambda z, a: _jacobian_of(eqx.combine(a, static), z), (y, arrays), (dy, along))[1]
 
 
 def gait_sensitivity(dynamics: AbstractDynamics, gait: Gait, names: list[str] | None = None) -> Sensitivity:
@@ -222,11 +226,11 @@ def gait_sensitivity(dynamics: AbstractDynamics, gait: Gait, names: list[str] | 
     w = left[:, int(np.argmin(np.abs(left_values - lam)))]  # w^T J = lam w^T
     fixed, radius = {}, {}
     for name in names:
-        value = getattr(dynamics, name)
-        partial = np.asarray(_parameter_derivative(dynamics, y, value, name))
+        along = _along(dynamics, name)
+        partial = np.asarray(_parameter_derivative(dynamics, y, along))
         dy = np.linalg.solve(np.eye(n) - jacobian, partial)
         fixed[name] = dy
-        d_jacobian = np.asarray(_jacobian_derivative_jit(dynamics, y, name, value, jnp.asarray(dy)))
+        d_jacobian = np.asarray(_jacobian_derivative(dynamics, y, jnp.asarray(dy), along))
         d_lam = (w @ d_jacobian @ v) / (w @ v)
         radius[name] = float(np.real(np.conj(lam) * d_lam) / np.abs(lam))
     return Sensitivity(fixed, radius)
