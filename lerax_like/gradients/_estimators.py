@@ -12,6 +12,7 @@ import time
 from collections.abc import Callable
 from typing import Any, final
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import jax.random as jr
@@ -64,16 +65,30 @@ def alpha_weight(first: np.ndarray, zeroth: np.ndarray) -> tuple[float, bool]:
     return alpha, False
 
 
+def _values(f, thetas, horizon):
+    return jax.vmap(f, in_axes=(0, None))(thetas, horizon)
+
+
+def _gradients(f, thetas, horizon):
+    return jax.vmap(jax.value_and_grad(f, has_aux=True), in_axes=(0, None))(thetas, horizon)
+
+
+# `f` is an argument, not a constant of the program: an `f` that is an Equinox module (the study's
+# objective) passes its arrays (the env's parameters, the start) as the program's inputs, so that
+# another objective of the same structure (another start, other parameters) runs the same program,
+# traced and compiled once.
+_PROGRAMS = {"values": eqx.filter_jit(_values), "gradients": eqx.filter_jit(_gradients)}
+
+
 @final
 class Evaluators:
     """`f` and `(f, grad f)` over a batch of `theta` at one `horizon`, compiled once for
-    every horizon up to the objective's `steps` (the horizon is traced)."""
+    every horizon up to the objective's `steps` (the horizon is traced), and once for every
+    `f` of the same structure when `f` is an Equinox module (its arrays are the programs'
+    inputs, not constants)."""
 
     def __init__(self, f):
-        self._jitted = {
-            "values": jax.jit(jax.vmap(f, in_axes=(0, None))),
-            "gradients": jax.jit(jax.vmap(jax.value_and_grad(f, has_aux=True), in_axes=(0, None))),
-        }
+        self.f = f
         self._compiled: dict[str, Any] = {}
         self.compile_seconds = 0.0
 
@@ -81,9 +96,9 @@ class Evaluators:
         horizon = jnp.asarray(horizon, dtype=int)
         if which not in self._compiled:
             start = time.perf_counter()
-            self._compiled[which] = self._jitted[which].lower(thetas, horizon).compile()
+            self._compiled[which] = _PROGRAMS[which].lower(self.f, thetas, horizon).compile()
             self.compile_seconds += time.perf_counter() - start
-        return self._compiled[which](thetas, horizon)
+        return self._compiled[which](self.f, thetas, horizon)
 
 
 def estimate_gradients(

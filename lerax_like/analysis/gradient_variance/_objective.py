@@ -14,6 +14,7 @@ import jax
 import jax.numpy as jnp
 import jax.random as jr
 import numpy as np
+from jax.tree_util import Partial
 
 from ..._types import Array, BoolScalar, Float
 from ...env import AbstractEnv, EnvState
@@ -92,6 +93,25 @@ def closed_loop_step(env: AbstractEnv, kind: str, theta: Array) -> Callable[[Arr
     return step
 
 
+def _stage_costs(env, y0, kind, steps, state_weight, action_weight, theta, horizon):
+    def advance(y, action):
+        next_y, step_ok = step_state(env, y, jnp.reshape(action, env.action_space.shape))
+        cost = env.dt * (state_weight * jnp.sum(next_y**2) + action_weight * jnp.sum(action**2))
+        return next_y, step_ok, cost
+
+    def hold(y, action):
+        return y, jnp.asarray(True), jnp.zeros((), dtype=y.dtype)
+
+    def body(carry, k):
+        y, ok = carry
+        action = policy_action(kind, theta, y, k)
+        next_y, step_ok, cost = jax.lax.cond(k < horizon, advance, hold, y, action)
+        return (next_y, ok & step_ok), cost
+
+    (_, ok), values = jax.lax.scan(body, (y0, jnp.asarray(True)), jnp.arange(steps))
+    return values, ok
+
+
 def stage_costs(
     env: AbstractEnv, y0: Array, kind: str, steps: int, state_weight: float, action_weight: float
 ) -> Callable[[Array, Any], tuple[Float[Array, " steps"], BoolScalar]]:
@@ -104,36 +124,23 @@ def stage_costs(
     one compilation serves every horizon. Past it the steps are skipped (`lax.cond` on a
     predicate that `vmap` over `theta` leaves unbatched, so the skip is real): they cost
     nothing, cannot fail, and feed nothing into the gradient.
+
+    The function is a `jax.tree_util.Partial`, a pytree whose leaves are the env's arrays and
+    `y0`: given to a program as an argument (`eqx.filter_jit`: `lerax_like.gradients.Evaluators`),
+    one compilation serves every start and env of the same structure.
     """
+    return Partial(_stage_costs, env, jnp.asarray(y0), kind, int(steps), float(state_weight), float(action_weight))
 
-    def advance(y, action):
-        next_y, step_ok = step_state(env, y, jnp.reshape(action, env.action_space.shape))
-        cost = env.dt * (state_weight * jnp.sum(next_y**2) + action_weight * jnp.sum(action**2))
-        return next_y, step_ok, cost
 
-    def hold(y, action):
-        return y, jnp.asarray(True), jnp.zeros((), dtype=y.dtype)
-
-    def costs(theta, horizon):
-        def body(carry, k):
-            y, ok = carry
-            action = policy_action(kind, theta, y, k)
-            next_y, step_ok, cost = jax.lax.cond(k < horizon, advance, hold, y, action)
-            return (next_y, ok & step_ok), cost
-
-        (_, ok), values = jax.lax.scan(body, (y0, jnp.asarray(True)), jnp.arange(steps))
-        return values, ok
-
-    return costs
+def _summed(costs, theta, horizon):
+    values, ok = costs(theta, horizon)
+    return jnp.sum(values), ok
 
 
 def objective(costs):
-    """`(theta, horizon) -> (f, all solves ok)`: the summed `stage_costs`."""
-    def f(theta, horizon):
-        values, ok = costs(theta, horizon)
-        return jnp.sum(values), ok
-
-    return f
+    """`(theta, horizon) -> (f, all solves ok)`: the summed `stage_costs` (a `Partial` too, its
+    leaves theirs)."""
+    return Partial(_summed, costs)
 
 
 def active_parameters(kind: str, theta: Array, horizon: int) -> np.ndarray:
