@@ -73,10 +73,10 @@ def _gradients(f, thetas, horizon):
     return jax.vmap(jax.value_and_grad(f, has_aux=True), in_axes=(0, None))(thetas, horizon)
 
 
-# `f` is an argument, not a constant of the program: an `f` that is an Equinox module (the study's
-# objective) passes its arrays (the env's parameters, the start) as the program's inputs, so that
-# another objective of the same structure (another start, other parameters) runs the same program,
-# traced and compiled once.
+# `f` is an argument, not a constant of the program: an `f` that is a pytree (the study's objective,
+# a `jax.tree_util.Partial`) passes its arrays (the env's parameters, the start) as the program's
+# inputs, so that another objective of the same structure (another start, other parameters) runs
+# the same program, traced and compiled once.
 _PROGRAMS = {"values": eqx.filter_jit(_values), "gradients": eqx.filter_jit(_gradients)}
 
 
@@ -84,8 +84,8 @@ _PROGRAMS = {"values": eqx.filter_jit(_values), "gradients": eqx.filter_jit(_gra
 class Evaluators:
     """`f` and `(f, grad f)` over a batch of `theta` at one `horizon`, compiled once for
     every horizon up to the objective's `steps` (the horizon is traced), and once for every
-    `f` of the same structure when `f` is an Equinox module (its arrays are the programs'
-    inputs, not constants)."""
+    `f` of the same structure when `f` is a pytree of arrays (a `jax.tree_util.Partial`, an
+    Equinox module: its arrays are the programs' inputs, not constants)."""
 
     def __init__(self, f):
         self.f = f
