@@ -29,7 +29,7 @@ jax.config.update("jax_numpy_dtype_promotion", "strict")
 # Python's cyclic garbage collector, run a hundred times less often: tracing a program makes
 # hundreds of thousands of small objects, and with Python's default threshold (700) the
 # collector took 12% of a gradient test's time (docs/testing.md). Cycles are still collected,
-# and a full collection follows each clearing of JAX's caches (`_release_compiled_programs`).
+# and every module ends with a full collection (`_release_compiled_programs`).
 gc.set_threshold(100_000, 50, 1000)
 
 # XLA compiles the suite's programs with LLVM's optimisation level 0 and its older CPU fusion
@@ -113,48 +113,31 @@ def getkey():
     return lambda: next(keys)
 
 
-def _memory_mappings() -> tuple[int, int] | None:
-    """This process's memory mappings and Linux's limit on them (`vm.max_map_count`); None
-    where the system does not say (no /proc)."""
-    try:
-        with open("/proc/self/maps") as maps, open("/proc/sys/vm/max_map_count") as limit:
-            return sum(1 for _ in maps), int(limit.read())
-    except OSError:
-        return None
-
-
 @pytest.fixture(autouse=True, scope="module")
 def _release_compiled_programs():
-    """Drop JAX's compiled programs after a module once they near Linux's limit on mappings.
+    """Drop JAX's compiled programs when a module's tests are done.
 
     Each program XLA compiles for the CPU keeps memory mappings, and a test process keeps
     every program until it exits. One worker runs about half the suite, which is more than
     60,000 mappings: past Linux's `vm.max_map_count` (65,530) the next compile fails, a
-    segfault or an abort inside XLA, and pytest-xdist hangs after replacing the worker. So
-    when a module ends with the process past a quarter of the limit (one module adds at most
-    about 7,500), JAX's caches are cleared and the programs collected. Until then they are
-    kept, so that a later module that steps the same scenes with the same solvers reuses the
-    programs traced and compiled before (`test_functional_api` after `test_jit_env`: 107 s ->
-    71 s; twelve modules in one process 607 s -> 569 s). Where the system does not report its
-    mappings, they are cleared after every module.
+    segfault or an abort inside XLA, and pytest-xdist hangs after replacing the worker. A
+    module's programs are rarely reused by another, so the suite loses little by dropping
+    them: measured, a worker now stays under 2,200 mappings (the suite took 1530 s, as before).
 
-    One cache `jax.clear_caches` leaves is cleared after every module: JAX 0.10's
-    `api_util.donation_vector`, an `lru_cache` of 4096 entries keyed by the pytree structure
-    of each jitted call. Equinox's `filter_jit` (diffrax's `diffeqsolve`) puts the call's static
-    part in that structure, and there diffrax's root-finding closure holds a tracer of the trace
-    that made it, with its whole jaxpr: about 25,000 objects kept for every hybrid env traced.
-    A worker held 2.8 million objects after `test_functional_api`, and every module's
-    `gc.collect()` then took 2.2 s. (Keeping JAX's caches across modules was measured slower
-    while this cache grew, e5531fb.)
+    One cache `jax.clear_caches` leaves: JAX 0.10's `api_util.donation_vector`, an
+    `lru_cache` of 4096 entries keyed by the pytree structure of each jitted call. Equinox's
+    `filter_jit` (diffrax's `diffeqsolve`) puts the call's static part in that structure, and
+    there diffrax's root-finding closure holds a tracer of the trace that made it, with its
+    whole jaxpr: about 25,000 objects kept for every hybrid env traced. A worker held 2.8
+    million objects after `test_functional_api`, and every module's `gc.collect()` then took
+    2.2 s. Cleared here as well.
     """
     yield
+    jax.clear_caches()
     donation_vector = getattr(importlib.import_module("jax._src.api_util"), "donation_vector", None)
     if donation_vector is not None:
         donation_vector.cache_clear()
-    mappings = _memory_mappings()
-    if mappings is None or mappings[0] > mappings[1] // 4:
-        jax.clear_caches()
-        gc.collect()
+    gc.collect()
 
 
 def unforced_run_against(env, y0, reference, *, steps=100, every=25, atol=1e-6):
@@ -214,8 +197,8 @@ __all__ = ["STATE_RTOL", "XLA_DEFAULTS", "hybrid", "jacfwd_and_value", "jnp", "q
 # JAX's persistent compilation cache, shared by every process of one run. Most of the suite's
 # time is XLA compiling (docs/testing.md), and much of it compiles a program that another
 # module, or the other xdist worker, has compiled already: the same scene and solver stepped
-# in many modules. `_release_compiled_programs` drops the programs every few modules (it must,
-# for `vm.max_map_count`), so without this cache every later module compiles them again; with
+# in many modules. `_release_compiled_programs` drops each module's programs (it must, for
+# `vm.max_map_count`), so without this cache every later module compiles them again; with
 # it, a program compiled once in the run is read back from disk (tracing and lowering are
 # still paid, XLA's compile is not). The folder is the run's own, made by the process that
 # starts the run (the controller under xdist), never the user's home, and removed when the
