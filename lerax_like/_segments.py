@@ -84,6 +84,19 @@ def batched_as(tree, like):
     return jax.tree.map(lambda x: jnp.where(read, x, x), tree)
 
 
+def varying_zero(y: Array) -> Scalar:
+    """Zero, in `y`'s dtype, that varies as `y` does under `jax.vmap` and in `jax.jvp`: batched
+    where `y` is, with a (zero) tangent where `y` has one.
+
+    A loop carry started at it (the time reached, the time of a first event) enters the loop
+    as the body will leave it, so that JAX traces the body's derivative once, not again when
+    its first pass finds that carry entry differentiated.
+    """
+    a = jnp.ravel(y)[0]
+    # `a - a` is exactly zero for a finite `a`, and so is its derivative, `da - da`.
+    return jnp.where(jnp.isfinite(a), a - a, jnp.zeros_like(a))
+
+
 def hermite_dip(g0, g1, m0, m1):
     """Where in `(0, 1)` the cubic Hermite `p` (values `g0`, `g1`, slopes `m0`, `m1`) is lowest, and `p` there.
 
@@ -369,7 +382,9 @@ def integrate_hybrid(
     # otherwise it stores the internals (solver checkpoints, event search) of all
     # `max_events + 2` segments, used or not. Values and gradients are unchanged.
     checkpointed = jax.checkpoint(segment, prevent_cse=False)
-    zero, never = jnp.zeros((), int), jnp.asarray(jnp.inf, y0.dtype)
+    # The time reached and the first events' times vary with the start from the first segment on.
+    start = varying_zero(y0)
+    zero, never = jnp.zeros((), int), start + jnp.inf
     mode = modes.initial_mode(y0)
     checks = {name: jnp.asarray(True) for name in modes.checks}
     kinds = range(len(modes.kinds))
@@ -379,7 +394,7 @@ def integrate_hybrid(
     # mass: 4% and 34%; with friction and Tsit5, the gradient 8%). The same values and
     # gradients, bit for bit.
     initial = batched_as((
-        y0, jnp.zeros((), y0.dtype), mode, no_event, jnp.asarray(True), checks, zero, zero,
+        y0, start, mode, no_event, jnp.asarray(True), checks, zero, zero,
         tuple(zero for _ in kinds), tuple(never for _ in kinds),
     ), (y0, u, modes))
     # `max_events + 1` segments, and one more that only settles an event that ended the last.
